@@ -1,0 +1,65 @@
+# Helpers shared by every component's CMakeLists.txt.
+
+# Add every direct subfolder of DIR that has a CMakeLists.txt, in name order.
+function(harvest_add_subdirectories dir)
+  file(GLOB children RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}/${dir} ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/*)
+  list(SORT children)
+  foreach(child IN LISTS children)
+    if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt)
+      add_subdirectory(${dir}/${child})
+    endif()
+  endforeach()
+endfunction()
+
+# harvest_library(NAME SOURCES ... [DEPS ...])
+# A static library harvest_<NAME>; headers are included as "<folder>/<file>.hpp"
+# relative to lib/.
+function(harvest_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(harvest_${name} STATIC ${ARG_SOURCES})
+  target_include_directories(harvest_${name} PUBLIC ${PROJECT_SOURCE_DIR}/lib)
+  target_link_libraries(harvest_${name} PUBLIC ${ARG_DEPS} PRIVATE harvest_warnings)
+  set_target_properties(harvest_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# harvest_process(NAME SOURCES ... [DEPS ...]): an executable bin/NAME.
+function(harvest_process name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} harvest_warnings)
+endfunction()
+
+# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS ...]): a GoogleTest binary
+# registered with CTest. Tests run from the source root so fixtures can be
+# found as config/..., logs/...
+function(harvest_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS unit)
+  endif()
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 120)
+  endif()
+  add_executable(${name} ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main harvest_warnings)
+  target_compile_definitions(${name} PRIVATE
+    HARVEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}" HARVEST_BIN_DIR="${HARVEST_BIN_DIR}")
+  gtest_discover_tests(${name}
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+    DISCOVERY_MODE PRE_TEST
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT})
+endfunction()
+
+# harvest_benchmark(NAME SOURCES ... [DEPS ...]): a Google Benchmark binary in
+# build/bench (not run by ctest; see tools/harvest bench).
+function(harvest_benchmark name)
+  if(NOT HARVEST_BENCHMARKS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark harvest_warnings)
+  target_compile_definitions(${name} PRIVATE HARVEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+endfunction()

@@ -1,0 +1,35 @@
+#include "runtime/dispatcher.hpp"
+
+namespace harvest::rt {
+
+void Dispatcher::subscribe_bytes(const std::string& channel, RawHandler handler) {
+  auto& list = handlers_[channel];
+  list.push_back(std::move(handler));
+  if (list.size() == 1) on_first_subscription(channel);
+}
+
+TimerId Dispatcher::add_timer(Micros first_due, Micros period, std::function<void()> callback) {
+  return timers_.add(first_due, period, std::move(callback));
+}
+
+std::string Dispatcher::logical_channel(const std::string& full) const {
+  if (full.compare(0, prefix_.size(), prefix_) != 0) return {};
+  return full.substr(prefix_.size());
+}
+
+void Dispatcher::attach_all() {
+  for (Node* n : nodes_) n->attach(*this);
+}
+
+void Dispatcher::deliver(const std::string& channel, const void* data, std::size_t size, Micros receive_time) {
+  auto it = handlers_.find(channel);
+  if (it == handlers_.end()) return;
+  MessageInfo info{&it->first, receive_time, size};
+  // Index loop: a handler may subscribe (and so grow the list) while we run.
+  for (std::size_t i = 0; i < it->second.size(); ++i) {
+    RawHandler h = it->second[i];
+    h(data, size, info);
+  }
+}
+
+}  // namespace harvest::rt

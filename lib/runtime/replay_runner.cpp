@@ -1,0 +1,104 @@
+#include "runtime/replay_runner.hpp"
+
+#include <cstring>
+#include <stdexcept>
+
+namespace harvest::rt {
+
+ReplayRunner::ReplayRunner(ReplayOptions options) : Dispatcher(options.prefix), options_(std::move(options)) {}
+
+ReplayRunner::~ReplayRunner() = default;
+
+void ReplayRunner::watch_fd(int, std::function<void()>) {
+  throw std::logic_error("replay cannot watch file descriptors: device nodes are not replayed");
+}
+
+void ReplayRunner::request_stop(int exit_code) {
+  stop_ = true;
+  result_.exit_code = exit_code;
+}
+
+void ReplayRunner::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
+  ++result_.messages_published;
+  if (out_) {
+    lcm::LogEvent ev{};
+    ev.eventnum = 0;  // the writer numbers events itself
+    ev.timestamp = clock_.now();
+    ev.channel = full_channel(channel);
+    ev.datalen = static_cast<int32_t>(size);
+    ev.data = const_cast<void*>(data);
+    if (out_->writeEvent(&ev) != 0) throw std::runtime_error("cannot write " + options_.output_log);
+  }
+  Pending p{channel, std::vector<uint8_t>(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + size)};
+  pending_.push_back(std::move(p));
+}
+
+void ReplayRunner::drain() {
+  // Messages published while handling one input reach the other nodes at the
+  // same logical time, in publication order, before the next input.
+  std::size_t guard = 0;
+  while (!pending_.empty()) {
+    Pending p = std::move(pending_.front());
+    pending_.pop_front();
+    deliver(p.channel, p.bytes.data(), p.bytes.size(), clock_.now());
+    if (++guard > 1'000'000) throw std::runtime_error("replay: nodes keep publishing to each other without end");
+  }
+}
+
+void ReplayRunner::fire_until(Micros t) {
+  // Fire one timer at a time so messages it publishes are delivered before
+  // the next timer, exactly as live.
+  while (!stop_) {
+    auto due = timers_.next_due();
+    if (!due || *due > t) break;
+    result_.timers_fired += static_cast<int64_t>(timers_.fire_due(*due, [this](Micros d) { clock_.set(d); }));
+    drain();
+  }
+}
+
+ReplayResult ReplayRunner::run() {
+  lcm::LogFile in(options_.input_log, "r");
+  if (!in.good()) throw std::runtime_error("cannot open log " + options_.input_log);
+  if (!options_.output_log.empty()) {
+    out_ = std::make_unique<lcm::LogFile>(options_.output_log, "w");
+    if (!out_->good()) throw std::runtime_error("cannot create log " + options_.output_log);
+  }
+
+  const lcm::LogEvent* ev = in.readNextEvent();
+  if (ev == nullptr) {
+    attach_all();
+    return result_;
+  }
+  clock_.set(ev->timestamp);
+  result_.first_time = ev->timestamp;
+  attach_all();
+  drain();
+
+  for (; ev != nullptr && !stop_; ev = in.readNextEvent()) {
+    if (options_.end_time && ev->timestamp > *options_.end_time) break;
+    ++result_.events_read;
+    fire_until(ev->timestamp);
+    if (stop_) break;
+    clock_.set(std::max(clock_.now(), static_cast<Micros>(ev->timestamp)));
+    result_.last_time = clock_.now();
+    if (options_.copy_inputs && out_) {
+      lcm::LogEvent copy = *ev;
+      out_->writeEvent(&copy);
+    }
+    const std::string logical = logical_channel(ev->channel);
+    if (logical.empty() && !prefix().empty()) continue;
+    if (advertised().count(logical)) {
+      ++result_.events_skipped;
+      continue;
+    }
+    if (!is_subscribed(logical)) continue;
+    ++result_.events_delivered;
+    deliver(logical, ev->data, static_cast<std::size_t>(ev->datalen), clock_.now());
+    drain();
+  }
+  if (!stop_ && options_.tail > 0) fire_until(result_.last_time + options_.tail);
+  out_.reset();
+  return result_;
+}
+
+}  // namespace harvest::rt

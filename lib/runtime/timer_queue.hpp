@@ -1,0 +1,40 @@
+// Timers driven by an injected clock. Both runners use this one queue, so a
+// timer fires at the same logical times live and in replay: periodic timers
+// re-arm at due + period, never at "now + period".
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <utility>
+
+#include "runtime/clock.hpp"
+
+namespace harvest::rt {
+
+using TimerId = uint64_t;
+
+class TimerQueue {
+ public:
+  TimerId add(Micros first_due, Micros period, std::function<void()> callback);
+  void cancel(TimerId id);
+  std::optional<Micros> next_due() const;
+  // Fire every timer due at or before `until`, earliest first (ties in
+  // creation order). set_time is called with each timer's due time before
+  // its callback runs. Returns the number fired.
+  std::size_t fire_due(Micros until, const std::function<void(Micros)>& set_time);
+  std::size_t size() const { return by_due_.size(); }
+
+ private:
+  struct Entry {
+    Micros period;
+    std::function<void()> callback;
+  };
+  // key: (due, id) gives a total, deterministic order.
+  std::map<std::pair<Micros, TimerId>, Entry> by_due_;
+  std::map<TimerId, Micros> due_of_;
+  TimerId next_id_ = 1;
+};
+
+}  // namespace harvest::rt
