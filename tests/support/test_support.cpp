@@ -1,0 +1,118 @@
+#include "test_support.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#ifndef HARVEST_SOURCE_DIR
+#define HARVEST_SOURCE_DIR "."
+#endif
+#ifndef HARVEST_BIN_DIR
+#define HARVEST_BIN_DIR "build/bin"
+#endif
+
+namespace harvest::testing {
+
+std::string unique_lcm_url() {
+  static std::atomic<int> counter{0};
+  const int port = 20000 + static_cast<int>((getpid() * 7 + counter++ * 13) % 40000);
+  return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
+}
+
+TempDir::TempDir() {
+  std::string templ = (std::filesystem::temp_directory_path() / "harvest-test-XXXXXX").string();
+  if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  path_ = templ;
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
+ChildProcess::ChildProcess(const std::vector<std::string>& argv, const std::filesystem::path& output_file,
+                           const std::vector<std::string>& extra_env)
+    : output_file_(output_file) {
+  pid_ = fork();
+  if (pid_ < 0) throw std::runtime_error("fork failed");
+  if (pid_ == 0) {
+    const int fd = open(output_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, 1);
+      dup2(fd, 2);
+      close(fd);
+    }
+    for (const auto& e : extra_env) putenv(const_cast<char*>(e.c_str()));
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execvp(args[0], args.data());
+    _exit(127);
+  }
+}
+
+ChildProcess::~ChildProcess() {
+  if (!exited_) stop();
+}
+
+bool ChildProcess::running() {
+  if (exited_) return false;
+  int st = 0;
+  const pid_t r = waitpid(pid_, &st, WNOHANG);
+  if (r == pid_) {
+    exited_ = true;
+    status_ = st;
+    return false;
+  }
+  return true;
+}
+
+static int decode_status(int st) {
+  if (WIFEXITED(st)) return WEXITSTATUS(st);
+  if (WIFSIGNALED(st)) return 128 + WTERMSIG(st);
+  return -1;
+}
+
+int ChildProcess::wait(std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (running()) {
+    if (std::chrono::steady_clock::now() >= end) return -1;
+    usleep(5000);
+  }
+  return decode_status(status_);
+}
+
+void ChildProcess::signal(int sig) {
+  if (!exited_) kill(pid_, sig);
+}
+
+int ChildProcess::stop(std::chrono::milliseconds timeout, int sig) {
+  if (exited_) return decode_status(status_);
+  kill(pid_, sig);
+  int rc = wait(timeout);
+  if (rc == -1) {
+    kill(pid_, SIGKILL);
+    rc = wait(std::chrono::seconds(5));
+  }
+  return rc;
+}
+
+std::string ChildProcess::output() const {
+  std::ifstream f(output_file_);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+std::string bin(const std::string& name) { return std::string(HARVEST_BIN_DIR) + "/" + name; }
+std::string source_path(const std::string& relative) { return std::string(HARVEST_SOURCE_DIR) + "/" + relative; }
+
+}  // namespace harvest::testing
