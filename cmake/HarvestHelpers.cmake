@@ -1,10 +1,16 @@
 # Helpers shared by every component's CMakeLists.txt.
 
 # Add every direct subfolder of DIR that has a CMakeLists.txt, in name order.
+# HARVEST_ONLY (a ;-list of folder names, e.g. "runtime;config;vision")
+# restricts the build to those folders, for partial builds on one machine.
+set(HARVEST_ONLY "" CACHE STRING "Build only these lib/processes/tests folders (default: all)")
 function(harvest_add_subdirectories dir)
   file(GLOB children RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}/${dir} ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/*)
   list(SORT children)
   foreach(child IN LISTS children)
+    if(HARVEST_ONLY AND NOT child IN_LIST HARVEST_ONLY)
+      continue()
+    endif()
     if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt)
       add_subdirectory(${dir}/${child})
     endif()

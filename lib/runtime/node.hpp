@@ -135,7 +135,7 @@ class Node {
   std::string name_;
   Context* ctx_ = nullptr;
   NodeStats stats_;
-  Health health_ = Health::kStarting;
+  Health health_ = Health::kOk;  // nodes with a start-up phase set kStarting themselves
   std::string health_message_;
   std::map<std::string, int64_t> next_seq_;
 };

@@ -1,0 +1,123 @@
+#include "config/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "test_support.hpp"
+
+using harvest::config::Document;
+using harvest::config::Error;
+using harvest::config::Range;
+
+namespace {
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Config, ReadsTypedValuesAndDefaults) {
+  auto doc = Document::load_string("gain: 2.5\nname: fixed\nenabled: true\ncount: 3\n", "test.yaml");
+  auto root = doc.root();
+  EXPECT_DOUBLE_EQ(root.required<double>("gain"), 2.5);
+  EXPECT_EQ(root.required<std::string>("name"), "fixed");
+  EXPECT_TRUE(root.required<bool>("enabled"));
+  EXPECT_EQ(root.get<int>("count", 7), 3);
+  EXPECT_EQ(root.get<int>("missing", 7), 7);
+  EXPECT_NO_THROW(doc.check_unused());
+  // Defaults land in the effective configuration.
+  EXPECT_NE(doc.emit().find("missing: 7"), std::string::npos);
+}
+
+TEST(Config, MissingRequiredNamesFileAndKey) {
+  auto doc = Document::load_string("detector:\n  min_area: 10\n", "det.yaml");
+  const auto msg = error_of([&] { doc.root().child("detector").required<double>("max_area"); });
+  EXPECT_NE(msg.find("det.yaml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("detector.max_area"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("required"), std::string::npos) << msg;
+}
+
+TEST(Config, WrongTypeIsAnError) {
+  auto doc = Document::load_string("rate: fast\nlist: [1, 2]\n", "t.yaml");
+  auto msg = error_of([&] { doc.root().required<double>("rate"); });
+  EXPECT_NE(msg.find("t.yaml: rate: expected a number, got 'fast'"), std::string::npos) << msg;
+  msg = error_of([&] { doc.root().required<double>("list"); });
+  EXPECT_NE(msg.find("got a list"), std::string::npos) << msg;
+}
+
+TEST(Config, OutOfRangeIsAnError) {
+  auto doc = Document::load_string("speed: 2.0\nn: -1\n", "arm.yaml");
+  auto msg = error_of([&] { doc.root().required<double>("speed", Range<double>{0.0, 0.381}); });
+  EXPECT_NE(msg.find("arm.yaml: speed: expected a number in [0.000000, 0.381000], got 2.0"), std::string::npos)
+      << msg;
+  msg = error_of([&] { doc.root().get<int>("n", 1, Range<int>{0}); });
+  EXPECT_NE(msg.find(">= 0"), std::string::npos) << msg;
+}
+
+TEST(Config, UnknownKeysAreErrors) {
+  auto doc = Document::load_string("gain: 1\ngian: 2\nsub:\n  a: 1\n  b: 2\n", "typo.yaml");
+  doc.root().required<double>("gain");
+  doc.root().child("sub").required<int>("a");
+  const auto msg = error_of([&] { doc.check_unused(); });
+  EXPECT_NE(msg.find("typo.yaml: unknown keys: gian, sub.b"), std::string::npos) << msg;
+}
+
+TEST(Config, ChoiceAndNumbers) {
+  auto doc = Document::load_string("mode: thesis\nk: [1, 2, 3]\nbad: [1, x]\n", "c.yaml");
+  EXPECT_EQ(doc.root().choice("mode", "improved", {"thesis", "improved"}), "thesis");
+  EXPECT_EQ(doc.root().numbers("k", 3), (std::vector<double>{1, 2, 3}));
+  EXPECT_NE(error_of([&] { doc.root().numbers("k", 5); }).find("a list of 5 numbers, got 3"), std::string::npos);
+  EXPECT_NE(error_of([&] { doc.root().numbers("bad"); }).find("element 1"), std::string::npos);
+  auto doc2 = Document::load_string("mode: fancy\n", "c.yaml");
+  EXPECT_NE(error_of([&] { doc2.root().choice("mode", "thesis", {"thesis", "improved"}); })
+                .find("one of {thesis, improved}, got 'fancy'"),
+            std::string::npos);
+}
+
+TEST(Config, OverridesApplyBeforeReading) {
+  auto doc = Document::load_string("a:\n  b: 1\n", "o.yaml");
+  doc.apply_override("a.b=5");
+  doc.apply_override("c.d.e=hello");
+  EXPECT_EQ(doc.root().child("a").required<int>("b"), 5);
+  EXPECT_EQ(doc.root().child("c").child("d").required<std::string>("e"), "hello");
+  EXPECT_THROW(doc.apply_override("novalue"), Error);
+  EXPECT_THROW(doc.apply_override("a.b.x=1"), Error);  // a.b is a scalar
+}
+
+TEST(Config, FileErrorsNameTheFile) {
+  harvest::testing::TempDir dir;
+  EXPECT_NE(error_of([&] { Document::load_file(dir / "nope.yaml"); }).find("nope.yaml: configuration file not found"),
+            std::string::npos);
+  std::ofstream(dir / "bad.yaml") << "a: [1, 2\n";
+  const auto msg = error_of([&] { Document::load_file(dir / "bad.yaml"); });
+  EXPECT_NE(msg.find("bad.yaml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("YAML syntax error"), std::string::npos) << msg;
+}
+
+TEST(Config, RelativePathsResolveBesideTheFile) {
+  harvest::testing::TempDir dir;
+  std::filesystem::create_directories(dir / "cameras");
+  std::ofstream(dir / "cameras" / "fixed.yaml") << "x: 1\n";
+  std::ofstream(dir / "main.yaml") << "calibration: cameras/fixed.yaml\n";
+  auto doc = Document::load_file(dir / "main.yaml");
+  EXPECT_EQ(doc.root().file_path("calibration"), dir / "cameras" / "fixed.yaml");
+}
+
+TEST(Config, SequencesOfMappings) {
+  auto doc = Document::load_string("joints:\n  - {name: j1, max: 1.0}\n  - {name: j2, max: 2.0, typo: 1}\n", "j.yaml");
+  auto joints = doc.root().children("joints");
+  ASSERT_EQ(joints.size(), 2u);
+  for (auto& j : joints) {
+    j.required<std::string>("name");
+    j.required<double>("max");
+  }
+  const auto msg = error_of([&] { doc.check_unused(); });
+  EXPECT_NE(msg.find("joints[1].typo"), std::string::npos) << msg;
+}
