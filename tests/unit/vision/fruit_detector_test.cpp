@@ -1,0 +1,381 @@
+#include "vision/fruit_detector.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "config/config.hpp"
+#include "opencv_reference.hpp"
+#include "synthetic_scene.hpp"
+#include "vision/depth.hpp"
+#include "vision/segmentation.hpp"
+
+namespace harvest::vision {
+namespace {
+
+using test::draw_disc;
+using test::kLeaf;
+using test::kOrange;
+
+// ---- depth from size: thesis table 6-2 ----
+
+TEST(DepthFromSize, ReproducesThesisTable6_2) {
+  // Image sizes (x, y) [px] and the thesis's estimated depths along x, y and mean [mm].
+  struct Row {
+    double sx, sy, zx, zy, mean;
+  };
+  const Row rows[] = {
+      {334, 321, 187.15, 184.73, 185.94},  {218, 205, 286.73, 289.26, 288.00}, {161, 152, 388.25, 390.12, 389.18},
+      {128, 119, 488.35, 498.30, 493.32},  {104, 98, 601.04, 605.08, 603.06},  {88, 83, 710.33, 714.44, 712.38},
+      {78, 72, 801.39, 823.59, 812.49},    {69, 64, 905.92, 926.53, 916.23},   {63, 59, 992.20, 1005.05, 998.63},
+      {56, 53, 1116.23, 1118.84, 1117.53}, {52, 50, 1202.09, 1185.97, 1194.03}};
+  // The table's last digit is truncated and its fx*Dx product was 62508.5
+  // rather than 833.57 * 74.99 = 62509.4, hence 0.015 mm (1.5e-5 relative).
+  for (const Row& r : rows) {
+    const DepthEstimate d = depth_from_size(833.57, 767.02, 74.99, 77.31, r.sx, r.sy);
+    EXPECT_NEAR(d.along_x, r.zx, 0.015) << r.sx;
+    EXPECT_NEAR(d.along_y, r.zy, 0.015) << r.sy;
+    EXPECT_NEAR(d.mean, r.mean, 0.015) << r.sx;
+  }
+  // eq. 6-11 is the mean of eq. 6-10 for one diameter.
+  EXPECT_DOUBLE_EQ(depth_from_diameter(833.57, 767.02, 75.0, 100.0), 0.5 * (833.57 + 767.02) * 0.75);
+}
+
+// ---- colour threshold and labelling ----
+
+bool thesis_inside(uint8_t b, uint8_t g, uint8_t r, const ColorThresholds& t, bool* near_bound) {
+  const CrCgCb c = crcgcb(b, g, r);
+  const double v[3] = {c.cr, c.cg, c.cb}, lo[3] = {t.cr_min, t.cg_min, t.cb_min},
+               hi[3] = {t.cr_max, t.cg_max, t.cb_max};
+  *near_bound = false;
+  bool in = true;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(v[i] - lo[i]) < 1e-6 || std::abs(v[i] - hi[i]) < 1e-6) *near_bound = true;
+    in = in && v[i] >= lo[i] && v[i] <= hi[i];
+  }
+  return in;
+}
+
+TEST(ColorThreshold, MatchesThesisFormulaOnRandomColours) {
+  std::mt19937 rng(42);
+  cv::Mat3b img(480, 640);
+  cv::randu(img, cv::Scalar::all(0), cv::Scalar::all(256));
+  const ColorThresholds t;
+  const cv::Mat1b mask = threshold_crcgcb(img, t);
+  int inside = 0, ties = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const cv::Vec3b p = img(y, x);
+      bool tie = false;
+      const bool expected = thesis_inside(p[0], p[1], p[2], t, &tie);
+      if (tie) {  // exactly on a bound: inclusive, as the thesis's (c < lo || c > hi) rejection
+        ++ties;
+        continue;
+      }
+      inside += expected;
+      ASSERT_EQ(mask(y, x) != 0, expected) << "BGR " << p;
+    }
+  EXPECT_GT(inside, 1000);  // the test exercises both outcomes
+  (void)ties;
+}
+
+TEST(ColorThreshold, BoundsAreInclusive) {
+  // R=100, G=100, B=100: Cr = 2 exactly... use a colour with Cr exactly 22:
+  // 0.721*R - 0.587*G - 0.114*B with R=G=B=v gives 0.02 v, so v=... instead
+  // set the bound to the pixel's exact value.
+  const CrCgCb c = crcgcb(30, 140, 230);  // Cr 80.234? computed exactly below
+  ColorThresholds t;
+  const int32_t cr_milli = 721 * 230 - 587 * 140 - 114 * 30;
+  t.cr_min = cr_milli / 1000.0;
+  t.cr_max = cr_milli / 1000.0;
+  cv::Mat3b px(1, 1, cv::Vec3b(30, 140, 230));
+  EXPECT_EQ(threshold_crcgcb(px, t)(0, 0), 255) << c.cr;
+  t.cr_min += 0.001;
+  EXPECT_EQ(threshold_crcgcb(px, t)(0, 0), 0);
+  t.cr_min = 80;
+  t.cr_max = 70;  // empty range
+  EXPECT_EQ(threshold_crcgcb(px, t)(0, 0), 0);
+}
+
+TEST(RegionLabeler, AgreesWithOpenCvConnectedComponents) {
+  cv::Mat1b mask(240, 320);
+  cv::randu(mask, 0, 2);
+  cv::Mat1b big;
+  cv::resize(mask, big, {}, 1, 1, cv::INTER_NEAREST);
+  mask = (mask > 0) * 255;
+  // Add a few larger blobs so regions of many shapes occur.
+  cv::circle(mask, {100, 100}, 40, 255, -1);
+  cv::circle(mask, {200, 150}, 25, 0, -1);
+  RegionLabeler labeler;
+  const auto& regions = labeler.label(mask, 0);
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 4, CV_32S);
+  ASSERT_EQ(static_cast<int>(regions.size()), n - 1);
+  // Same partition: ours and OpenCV's label images map one-to-one.
+  const cv::Mat1i ours = labeler.label_image(mask.cols, mask.rows);
+  std::vector<int> map(static_cast<std::size_t>(n), -1);
+  for (int y = 0; y < mask.rows; ++y)
+    for (int x = 0; x < mask.cols; ++x) {
+      const int cv_label = labels.at<int>(y, x);
+      int& m = map[static_cast<std::size_t>(cv_label)];
+      if (m < 0) m = ours(y, x);
+      ASSERT_EQ(m, ours(y, x)) << x << "," << y;
+    }
+  for (int l = 1; l < n; ++l) {
+    const Region& r = regions[static_cast<std::size_t>(map[static_cast<std::size_t>(l)] - 1)];
+    EXPECT_EQ(r.area, stats.at<int>(l, cv::CC_STAT_AREA));
+    EXPECT_EQ(r.x0, stats.at<int>(l, cv::CC_STAT_LEFT));
+    EXPECT_EQ(r.x1 - r.x0, stats.at<int>(l, cv::CC_STAT_WIDTH));
+    EXPECT_NEAR(r.cx(), centroids.at<double>(l, 0), 1e-9);
+    EXPECT_NEAR(r.cy(), centroids.at<double>(l, 1), 1e-9);
+  }
+}
+
+TEST(ColorThreshold, SameMaskAndRegionsAsOpenCvPipeline) {
+  // The benchmark baseline must do the same work: identical mask and regions.
+  cv::Mat3b img(480, 640);
+  cv::randn(img, cv::Scalar(60, 120, 70), cv::Scalar(40, 50, 40));
+  draw_disc(img, 200, 200, 40);
+  test::OpenCvPipeline ref;
+  const int n = ref.run(img);
+  const cv::Mat1b ours = threshold_crcgcb(img, ColorThresholds{});
+  EXPECT_EQ(cv::countNonZero(ours != ref.mask), 0);
+  EXPECT_GT(cv::countNonZero(ours), 5000);
+  RegionLabeler labeler;
+  EXPECT_EQ(static_cast<int>(labeler.label(ours, 0).size()), n - 1);
+}
+
+TEST(RegionLabeler, MinimumAreaIsStrict) {
+  cv::Mat1b mask = cv::Mat1b::zeros(20, 20);
+  mask(cv::Rect(1, 1, 5, 2)) = 255;    // 10 px
+  mask(cv::Rect(5, 10, 11, 1)) = 255;  // 11 px
+  RegionLabeler labeler;
+  const auto& regions = labeler.label(mask, 10);  // thesis: count > MinRegionArea
+  ASSERT_EQ(regions.size(), 1u);
+  EXPECT_EQ(regions[0].area, 11);
+}
+
+// ---- detection ----
+
+const double kFx = 833.57, kFy = 767.02;
+
+TEST(FruitDetector, WholeFruitCentroidAndDiameter) {
+  for (const bool canopy : {false, true}) {
+    for (const double r : {12.0, 30.0, 75.0}) {
+      cv::Mat3b img = test::background(640, 480);
+      const double cx = 301.3, cy = 207.8;
+      draw_disc(img, cx, cy, r);
+      FruitDetector det(canopy ? DetectorConfig::canopy() : DetectorConfig::thesis(), kFx, kFy);
+      const Detections d = det.detect(img);
+      ASSERT_EQ(d.fruits.size(), 1u) << r;
+      const Fruit& f = d.fruits[0];
+      EXPECT_NEAR(f.u, cx, 0.5) << r;
+      EXPECT_NEAR(f.v, cy, 0.5) << r;
+      EXPECT_NEAR(f.diameter_px, 2 * r, 0.02 * 2 * r) << r << " canopy " << canopy;
+      EXPECT_EQ(d.selected, 0);
+      EXPECT_TRUE(f.selected);
+      EXPECT_GT(f.visible_fraction, 0.95);
+      EXPECT_GT(f.confidence, 0.8);
+    }
+  }
+}
+
+TEST(FruitDetector, DepthOfRenderedSpheres200To1200mm) {
+  CameraModel cam = CameraModel::from_thesis(kFx, kFy, std::numbers::pi / 2, 319.5, 239.5, 640, 480);
+  const double diameter = 0.0725;
+  for (const bool canopy : {false, true}) {
+    DetectorConfig cfg = canopy ? DetectorConfig::canopy() : DetectorConfig::thesis();
+    cfg.fruit_diameter_m = diameter;
+    FruitDetector det(cfg, cam.fx, cam.fy);
+    for (double z = 0.2; z <= 1.2001; z += 0.1) {
+      cv::Mat3b img = test::background(640, 480);
+      test::render_sphere(img, cam, {0.01, -0.005, z}, diameter / 2);
+      const Detections d = det.detect(img);
+      ASSERT_EQ(d.fruits.size(), 1u) << z;
+      // Depth of the sphere's centre along the optical axis.
+      EXPECT_NEAR(d.fruits[0].depth_m, z, 0.02 * z) << "z " << z << " canopy " << canopy;
+    }
+  }
+}
+
+// A leaf (a rotated ellipse) hiding `share` of a disc.
+cv::Mat3b occluded_fruit(double cx, double cy, double r, double* hidden) {
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, cx, cy, r);
+  // A leaf lying across the lower right of the fruit, 0.75 r from its centre,
+  // long axis across the radius: hides 30 %, leaving a concave cut.
+  const double d = 0.75 * r / std::sqrt(2.0);
+  cv::ellipse(img, cv::Point2d(cx + d, cy + d), cv::Size2d(1.1 * r, 0.5 * r), -45, 0, 360,
+              cv::Scalar(kLeaf[0], kLeaf[1], kLeaf[2]), -1, cv::LINE_8);
+  *hidden = 1.0 - test::visible_share(img, cx, cy, r);
+  return img;
+}
+
+TEST(FruitDetector, DiameterSurvivesThirtyPercentOcclusion) {
+  const double r = 60, cx = 320, cy = 240;
+  double hidden = 0;
+  const cv::Mat3b img = occluded_fruit(cx, cy, r, &hidden);
+  ASSERT_NEAR(hidden, 0.30, 0.03);
+  FruitDetector canopy(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = canopy.detect(img);
+  ASSERT_EQ(d.fruits.size(), 1u);
+  EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.05 * 2 * r);
+  EXPECT_NEAR(d.fruits[0].u, cx, 3.0);
+  EXPECT_NEAR(d.fruits[0].v, cy, 3.0);
+  EXPECT_LT(d.fruits[0].visible_fraction, 0.85);
+  // The area-based diameter of the thesis underestimates by about sqrt(0.7).
+  FruitDetector thesis(DetectorConfig::thesis(), kFx, kFy);
+  const Detections t = thesis.detect(img);
+  ASSERT_EQ(t.fruits.size(), 1u);
+  EXPECT_LT(t.fruits[0].diameter_px, 0.9 * 2 * r);
+}
+
+TEST(FruitDetector, StraightLeafEdgeIsNotFruitEdge) {
+  // A leaf edge cutting a chord off the fruit: straight, so on the convex hull.
+  const double r = 50, cx = 300, cy = 250;
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, cx, cy, r);
+  img(cv::Rect(0, static_cast<int>(cy + 0.3 * r), 640, 480 - static_cast<int>(cy + 0.3 * r))) = kLeaf;
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = det.detect(img);
+  ASSERT_EQ(d.fruits.size(), 1u);
+  EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.05 * 2 * r);
+  EXPECT_NEAR(d.fruits[0].v, cy, 3.0);
+}
+
+TEST(FruitDetector, FruitCutByImageBorderKeepsItsDiameter) {
+  const double r = 50;
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, 20, 240, r);  // 30 px of it outside the image
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = det.detect(img);
+  ASSERT_EQ(d.fruits.size(), 1u);
+  EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.05 * 2 * r);
+}
+
+TEST(FruitDetector, TwoTouchingFruitAreTwo) {
+  for (const double gap : {-3.0, -10.0, -20.0}) {  // touching and overlapping by up to 20 % of a diameter
+    cv::Mat3b img = test::background(640, 480);
+    const double r1 = 45, r2 = 38;
+    draw_disc(img, 250, 240, r1);
+    draw_disc(img, 250 + r1 + r2 + gap, 250, r2);
+    FruitDetector canopy(DetectorConfig::canopy(), kFx, kFy);
+    const Detections d = canopy.detect(img);
+    ASSERT_EQ(d.fruits.size(), 2u) << gap;
+    std::vector<double> diameters{d.fruits[0].diameter_px, d.fruits[1].diameter_px};
+    std::sort(diameters.begin(), diameters.end());
+    EXPECT_NEAR(diameters[0], 2 * r2, 0.06 * 2 * r2) << gap;
+    EXPECT_NEAR(diameters[1], 2 * r1, 0.06 * 2 * r1) << gap;
+    FruitDetector thesis(DetectorConfig::thesis(), kFx, kFy);
+    EXPECT_EQ(thesis.detect(img).fruits.size(), 1u);  // the thesis method merges them
+  }
+}
+
+TEST(FruitDetector, OneFruitIsNotSplit) {
+  cv::Mat3b img = test::background(640, 480);
+  cv::ellipse(img, cv::Point(320, 240), cv::Size(60, 50), 20, 0, 360, cv::Scalar(30, 140, 230), -1);
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  EXPECT_EQ(det.detect(img).fruits.size(), 1u);
+}
+
+TEST(FruitDetector, HolesAreFilled) {
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, 320, 240, 50);
+  draw_disc(img, 305, 225, 10, cv::Vec3b(250, 250, 250));  // specular highlight
+  DetectorConfig cfg = DetectorConfig::thesis();
+  FruitDetector plain(cfg, kFx, kFy);
+  cfg.fill_holes = true;
+  FruitDetector filled(cfg, kFx, kFy);
+  const double full_area = std::numbers::pi * 50 * 50;
+  EXPECT_LT(plain.detect(img).fruits.at(0).area_px, full_area - 250);
+  EXPECT_NEAR(filled.detect(img).fruits.at(0).area_px, full_area, 0.01 * full_area);
+}
+
+TEST(FruitDetector, OpeningRemovesThinAttachments) {
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, 320, 240, 40);
+  cv::line(img, {360, 240}, {450, 240}, cv::Scalar(30, 140, 230), 1);  // a 1-px orange twig
+  DetectorConfig cfg = DetectorConfig::thesis();
+  FruitDetector plain(cfg, kFx, kFy);
+  cfg.open_radius_px = 1;
+  FruitDetector opened(cfg, kFx, kFy);
+  EXPECT_GT(plain.detect(img).fruits.at(0).diameter_x_px, 120);
+  EXPECT_NEAR(opened.detect(img).fruits.at(0).diameter_x_px, 81, 2);
+}
+
+TEST(FruitDetector, ShapesThatAreNotFruitAreRejected) {
+  cv::Mat3b img = test::background(640, 480);
+  cv::rectangle(img, cv::Rect(100, 100, 200, 12), cv::Scalar(30, 140, 230), -1);  // orange stick
+  // An L-shaped orange patch (a label, a crate edge): not convex.
+  cv::rectangle(img, cv::Rect(400, 300, 100, 20), cv::Scalar(30, 140, 230), -1);
+  cv::rectangle(img, cv::Rect(400, 300, 20, 100), cv::Scalar(30, 140, 230), -1);
+  draw_disc(img, 320, 380, 30);
+  DetectorConfig cfg = DetectorConfig::thesis();
+  FruitDetector thesis(cfg, kFx, kFy);
+  EXPECT_EQ(thesis.detect(img).fruits.size(), 3u);
+  cfg.reject_shapes = true;
+  FruitDetector strict(cfg, kFx, kFy);
+  const Detections d = strict.detect(img);
+  ASSERT_EQ(d.fruits.size(), 1u);
+  EXPECT_NEAR(d.fruits[0].u, 320, 0.5);
+}
+
+TEST(FruitDetector, SelectionCostOfAppendixB1) {
+  // 320x240 image as in the thesis: cost = Kr (320 / r - 1) + Kd Z[mm].
+  cv::Mat3b img = test::background(320, 240);
+  draw_disc(img, 80, 120, 30);   // big and near
+  draw_disc(img, 240, 120, 15);  // small and far
+  FruitDetector det(DetectorConfig::thesis(), kFx, kFy);
+  const Detections d = det.detect(img);
+  ASSERT_EQ(d.fruits.size(), 2u);
+  for (const Fruit& f : d.fruits) {
+    const double r = std::sqrt(f.area_px / std::numbers::pi);
+    const double z_mm = (kFx + kFy) * 72.5 / (2 * 2 * r);
+    EXPECT_NEAR(f.depth_m * 1000, z_mm, 1e-6);
+    EXPECT_NEAR(f.cost, 1.0 * (320 / r - 1) + 0.025 * z_mm, 1e-6);
+  }
+  EXPECT_EQ(d.selected, 0);
+  EXPECT_LT(d.fruits[0].u, 160);
+  // The same scene at twice the resolution costs the same (normalised), so it
+  // does not depend on image size; depth is the same fruit, so cost is equal.
+  cv::Mat3b big = test::background(640, 480);
+  draw_disc(big, 160, 240, 60);
+  FruitDetector det2(DetectorConfig::thesis(), 2 * kFx, 2 * kFy);
+  const Detections d2 = det2.detect(big);
+  ASSERT_EQ(d2.fruits.size(), 1u);
+  EXPECT_NEAR(d2.fruits[0].cost, d.fruits[0].cost, 0.02 * d.fruits[0].cost);
+}
+
+TEST(FruitDetector, EmptyImageHasNoTarget) {
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = det.detect(test::background(64, 48));
+  EXPECT_TRUE(d.fruits.empty());
+  EXPECT_EQ(d.selected, -1);
+}
+
+TEST(DetectorConfig, FromYaml) {
+  auto doc = config::Document::load_string("mode: thesis\ncr_min: 30\nmin_area_px: 20\n");
+  const DetectorConfig c = DetectorConfig::from_yaml(doc.root());
+  doc.check_unused();
+  EXPECT_FALSE(c.circle_fit);
+  EXPECT_FALSE(c.split_touching);
+  EXPECT_EQ(c.thresholds.cr_min, 30);
+  EXPECT_EQ(c.thresholds.cr_max, 90);
+  EXPECT_EQ(c.min_area_px, 20);
+  auto canopy = config::Document::load_string("{}");
+  EXPECT_TRUE(DetectorConfig::from_yaml(canopy.root()).circle_fit);
+
+  auto bad = config::Document::load_string("mode: magic\n");
+  EXPECT_THROW(DetectorConfig::from_yaml(bad.root()), config::Error);
+  auto inverted = config::Document::load_string("cg_min: 10\ncg_max: 5\n");
+  EXPECT_THROW(DetectorConfig::from_yaml(inverted.root()), config::Error);
+  auto typo = config::Document::load_string("circle_fitt: true\n");
+  DetectorConfig::from_yaml(typo.root());
+  EXPECT_THROW(typo.check_unused(), config::Error);
+}
+
+}  // namespace
+}  // namespace harvest::vision
