@@ -1,0 +1,52 @@
+// The arm's kinematic model: a Denavit-Hartenberg chain, its mounting in the
+// robot base frame, joint limits and the tool/camera offsets, read from
+// configuration (config/arm/*.yaml).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "config/config.hpp"
+
+namespace harvest::kinematics {
+
+// One revolute joint in standard (distal) DH convention:
+// T_{i-1,i} = Rz(theta) Tz(d) Tx(a) Rx(alpha), theta = q + theta_offset.
+struct Joint {
+  std::string name;
+  double a = 0.0;             // [m]
+  double alpha = 0.0;         // [rad]
+  double d = 0.0;             // [m]
+  double theta_offset = 0.0;  // [rad]
+  double min = 0.0;           // position limits [rad]
+  double max = 0.0;
+  double max_velocity = 0.0;      // [rad/s]
+  double max_acceleration = 0.0;  // [rad/s^2]
+};
+
+struct ArmModel {
+  std::string name;
+  std::vector<Joint> joints;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();    // DH frame 0 in the robot base frame
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // tool centre point in the flange frame
+  Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();  // hand camera optical frame in the flange frame
+  Eigen::VectorXd home;                                      // [rad]
+
+  int dof() const { return static_cast<int>(joints.size()); }
+  Eigen::VectorXd lower() const;
+  Eigen::VectorXd upper() const;
+  Eigen::VectorXd max_velocity() const;
+  Eigen::VectorXd max_acceleration() const;
+  bool within_limits(const Eigen::VectorXd& q, double margin = 0.0) const;
+
+  // Reads the `arm` mapping (see config/arm/k1207i.yaml). Throws config::Error.
+  static ArmModel from_config(const config::Node& node);
+  // Loads a whole file whose root is the arm mapping and checks for unknown keys.
+  static ArmModel load(const std::string& path);
+};
+
+// Rotation from roll, pitch, yaw (fixed axes x, y, z: R = Rz(yaw) Ry(pitch) Rx(roll)).
+Eigen::Matrix3d rotation_from_rpy(double roll, double pitch, double yaw);
+
+}  // namespace harvest::kinematics

@@ -1,0 +1,158 @@
+#include "kinematics/diff_ik.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace harvest::kinematics {
+
+Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
+                                         const IkOptions& options, const std::vector<bool>* locked) {
+  const int n = model.dof();
+  Jacobian j = tool_jacobian(model, q);
+  const auto is_locked = [&](int i) { return locked != nullptr && (*locked)[i]; };
+  for (int i = 0; i < n; ++i)
+    if (is_locked(i)) j.col(i).setZero();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const double s_min = s[s.size() - 1];
+  double lambda2 = 0.0;
+  if (s_min < options.singular_threshold) {
+    const double r = s_min / options.singular_threshold;
+    lambda2 = options.max_damping * options.max_damping * (1.0 - r * r);
+  }
+  Eigen::VectorXd inv(s.size());
+  for (int i = 0; i < s.size(); ++i) inv[i] = s[i] / (s[i] * s[i] + lambda2);
+  const Eigen::MatrixXd& v = svd.matrixV();
+  Eigen::VectorXd qdot = v * inv.asDiagonal() * svd.matrixU().transpose() * twist;
+
+  // Null-space motion toward the centre of each joint's range. A locked
+  // joint's column is zero, so its component passes the projector unchanged:
+  // it must be zero here.
+  Eigen::VectorXd centring(n);
+  for (int i = 0; i < n; ++i) {
+    const auto& jt = model.joints[i];
+    centring[i] =
+        is_locked(i) ? 0.0 : -options.null_space_gain * (q[i] - 0.5 * (jt.min + jt.max)) / (0.5 * (jt.max - jt.min));
+  }
+  // Projector onto the null space of the full-rank part of J.
+  Eigen::MatrixXd projector = Eigen::MatrixXd::Identity(n, n);
+  for (int i = 0; i < s.size(); ++i)
+    if (s[i] > 1e-9) projector -= v.col(i) * v.col(i).transpose();
+  qdot += projector * centring;
+  return qdot;
+}
+
+Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
+                                             double dt, const IkOptions& options, int* num_locked) {
+  const int n = model.dof();
+  std::vector<bool> locked(static_cast<std::size_t>(n), false);
+  Eigen::VectorXd qdot = joint_velocity_for_twist(model, q, twist, options);
+  int count = 0;
+  for (int pass = 0; pass < n; ++pass) {
+    bool changed = false;
+    for (int i = 0; i < n; ++i) {
+      const double next = q[i] + qdot[i] * dt;
+      if (!locked[i] && (next > model.joints[i].max || next < model.joints[i].min)) {
+        locked[i] = true;
+        changed = true;
+        ++count;
+      }
+    }
+    if (!changed) break;
+    qdot = joint_velocity_for_twist(model, q, twist, options, &locked);
+  }
+  if (num_locked != nullptr) *num_locked = count;
+  return qdot;
+}
+
+LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& previous,
+                                     const Eigen::VectorXd& desired, double dt) {
+  const int n = model.dof();
+  LimitedVelocity out;
+  Eigen::VectorXd qd = desired;
+
+  double speed_scale = 1.0;
+  for (int i = 0; i < n; ++i) {
+    const double v = std::abs(qd[i]);
+    if (v > model.joints[i].max_velocity) speed_scale = std::min(speed_scale, model.joints[i].max_velocity / v);
+  }
+  if (speed_scale < 1.0) {
+    qd *= speed_scale;
+    out.velocity_scaled = true;
+  }
+
+  double accel_scale = 1.0;
+  const Eigen::VectorXd change = qd - previous;
+  for (int i = 0; i < n; ++i) {
+    const double max_change = model.joints[i].max_acceleration * dt;
+    if (std::abs(change[i]) > max_change) accel_scale = std::min(accel_scale, max_change / std::abs(change[i]));
+  }
+  if (accel_scale < 1.0) {
+    qd = previous + accel_scale * change;
+    out.acceleration_scaled = true;
+  }
+  // Position limits last, so they win over the acceleration limit: moving toward a limit at most as fast as it can
+  // still stop there with the joint's deceleration (and reach it within dt).
+  for (int i = 0; i < n; ++i) {
+    const auto& jt = model.joints[i];
+    const double room = qd[i] > 0 ? jt.max - q[i] : q[i] - jt.min;
+    const double allowed =
+        std::max(0.0, std::min(std::sqrt(2.0 * jt.max_acceleration * std::max(room, 0.0)), std::max(room, 0.0) / dt));
+    if (std::abs(qd[i]) > allowed) {
+      qd[i] = std::copysign(allowed, qd[i]);
+      out.position_clipped = true;
+    }
+  }
+
+  out.qdot = qd;
+  return out;
+}
+
+Twist pose_error(const Eigen::Isometry3d& desired, const Eigen::Isometry3d& current) {
+  Twist e;
+  e.head<3>() = desired.translation() - current.translation();
+  e.tail<3>() = orientation_error(desired.linear(), current.linear());
+  return e;
+}
+
+namespace {
+std::optional<Eigen::VectorXd> solve_from(const ArmModel& model, const Eigen::Isometry3d& target, Eigen::VectorXd q,
+                                          const PoseSolveOptions& options) {
+  const Eigen::VectorXd lo = model.lower(), hi = model.upper();
+  for (int it = 0; it < options.max_iterations; ++it) {
+    const Twist e = pose_error(target, tool_pose(model, q));
+    if (e.head<3>().norm() < options.position_tolerance && e.tail<3>().norm() < options.orientation_tolerance) return q;
+    // A Newton step on the pose error, bounded so the linearisation holds.
+    Eigen::VectorXd step = joint_velocity_within_limits(model, q, e, 1.0, options.ik);
+    const double norm = step.norm();
+    if (norm > 0.2) step *= 0.2 / norm;
+    q = (q + step).cwiseMax(lo).cwiseMin(hi);
+  }
+  return std::nullopt;
+}
+}  // namespace
+
+std::optional<Eigen::VectorXd> solve_pose(const ArmModel& model, const Eigen::Isometry3d& target,
+                                          const Eigen::VectorXd& seed, const PoseSolveOptions& options) {
+  if (auto q = solve_from(model, target, seed, options)) return q;
+  // Restart seeds: the joint-range centres perturbed by a fixed sequence
+  // (a small linear congruential generator with a constant seed).
+  uint32_t state = 12345u;
+  const auto uniform = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<double>(state >> 8) / static_cast<double>(1u << 24);
+  };
+  for (int r = 0; r < options.restarts; ++r) {
+    Eigen::VectorXd start(model.dof());
+    for (int i = 0; i < model.dof(); ++i) {
+      const auto& jt = model.joints[i];
+      start[i] = jt.min + (0.25 + 0.5 * uniform()) * (jt.max - jt.min);
+    }
+    if (auto q = solve_from(model, target, start, options)) return q;
+  }
+  return std::nullopt;
+}
+
+}  // namespace harvest::kinematics

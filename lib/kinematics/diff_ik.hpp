@@ -1,0 +1,69 @@
+// Differential inverse kinematics and joint limits.
+//
+// Damped least squares (Nakamura & Hanafusa; damping ramps up only near a
+// singularity, so away from one the task is tracked exactly) with the
+// redundancy spent on staying away from joint limits: a gradient step on the
+// distance to the joint-range centres, projected into the Jacobian's null
+// space so it never disturbs the tool.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "kinematics/arm_model.hpp"
+#include "kinematics/chain.hpp"
+
+namespace harvest::kinematics {
+
+struct IkOptions {
+  double max_damping = 0.05;         // lambda at a singularity
+  double singular_threshold = 0.04;  // smallest singular value below which damping ramps in
+  double null_space_gain = 0.5;      // joint-centring speed at a limit [rad/s]
+};
+
+// Joint velocities that produce `twist` (TCP linear, tool angular; base frame).
+// Joints flagged in `locked` (if given) do not move; the others compensate.
+Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
+                                         const IkOptions& options = {}, const std::vector<bool>* locked = nullptr);
+
+// As joint_velocity_for_twist, but a joint that would pass a position limit
+// within `dt` is locked and the twist re-solved with the remaining joints
+// (the redundancy takes over). Returns the locked-joint count in `num_locked`.
+Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
+                                             double dt, const IkOptions& options = {}, int* num_locked = nullptr);
+
+// Result of limiting a joint velocity command.
+struct LimitedVelocity {
+  Eigen::VectorXd qdot;
+  bool velocity_scaled = false;      // a joint speed limit scaled the whole vector
+  bool acceleration_scaled = false;  // the change was scaled to respect acceleration limits
+  bool position_clipped = false;     // some joint was slowed to stop at its position limit
+};
+
+// Makes `desired` respect the joint limits over one control period `dt`
+// starting at (q, previous): speed limits and acceleration limits scale the
+// whole vector (keeps the direction of motion); near a position limit a joint
+// may only move toward it as fast as it can still stop before it.
+LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& previous,
+                                     const Eigen::VectorXd& desired, double dt);
+
+// Pose error (position, rotation vector) from current to desired, base frame.
+Twist pose_error(const Eigen::Isometry3d& desired, const Eigen::Isometry3d& current);
+
+struct PoseSolveOptions {
+  IkOptions ik{.null_space_gain = 0.05};  // per iteration: small, so the Newton steps converge
+  double position_tolerance = 1e-5;       // [m]
+  double orientation_tolerance = 1e-4;    // [rad]
+  int max_iterations = 1000;              // per start
+  int restarts = 8;                       // further starts if one stalls at a joint limit
+};
+
+// Joint configuration placing the tool at `target`, found by iterating the
+// differential IK from `seed` while staying inside the joint limits. If that
+// stalls (a local minimum against a limit), it restarts from a fixed,
+// deterministic spread of configurations, so the answer is reproducible.
+std::optional<Eigen::VectorXd> solve_pose(const ArmModel& model, const Eigen::Isometry3d& target,
+                                          const Eigen::VectorXd& seed, const PoseSolveOptions& options = {});
+
+}  // namespace harvest::kinematics

@@ -1,0 +1,220 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "kinematics/diff_ik.hpp"
+
+namespace harvest::kinematics {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+ArmModel k1207i() { return ArmModel::load("config/arm/k1207i.yaml"); }
+
+ArmModel from_text(const std::string& text) {
+  auto doc = config::Document::load_string(text);
+  ArmModel m = ArmModel::from_config(doc.root());
+  doc.check_unused();
+  return m;
+}
+
+// Planar two-link arm, base frame = DH frame 0, no tool offset.
+ArmModel planar() {
+  return from_text(R"(
+joints:
+  - {name: j1, a: 0.5, min_deg: -170, max_deg: 170, max_velocity_deg_s: 90, max_acceleration_deg_s2: 180}
+  - {name: j2, a: 0.3, min_deg: -170, max_deg: 170, max_velocity_deg_s: 90, max_acceleration_deg_s2: 180}
+tool: {position: [0, 0, 0]}
+camera: {position: [0, 0, 0]}
+home_deg: [0, 0]
+)");
+}
+
+// The tool pose used in the thesis experiments: approach axis (tool z) toward
+// the tree (+y), image y down (+x).
+Eigen::Isometry3d toward_tree(double x_mm, double y_mm, double z_mm) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear().col(0) = Eigen::Vector3d::UnitZ();
+  t.linear().col(1) = Eigen::Vector3d::UnitX();
+  t.linear().col(2) = Eigen::Vector3d::UnitY();
+  t.translation() = Eigen::Vector3d(x_mm, y_mm, z_mm) / 1000.0;
+  return t;
+}
+
+TEST(ArmModel, LoadsK1207iWithThesisToolLength) {
+  const ArmModel m = k1207i();
+  EXPECT_EQ(m.dof(), 7);
+  EXPECT_NEAR(m.tool.translation().z(), 0.1905, 1e-12);
+  EXPECT_TRUE(m.within_limits(m.home));
+  EXPECT_EQ(ArmModel::load("config/arm/six_axis.yaml").dof(), 6);
+}
+
+TEST(ArmModel, RejectsBadConfiguration) {
+  const std::string joint =
+      "joints:\n  - {name: j1, a: 0.5, min_deg: -90, max_deg: 90, max_velocity_deg_s: 90, "
+      "max_acceleration_deg_s2: 180}\n";
+  EXPECT_THROW(from_text(joint + "home_deg: [100]\n"), config::Error);                          // home outside limits
+  EXPECT_THROW(from_text(joint + "home_deg: [0, 0]\n"), config::Error);                         // wrong size
+  EXPECT_THROW(from_text(joint + "home_deg: [0]\nbase: {rotation: [1,0,0, 0,1,0, 0,0,-1]}\n"),  // reflection
+               config::Error);
+  EXPECT_THROW(from_text(joint + "home_deg: [0]\nreach: 3\n"), config::Error);  // unknown key
+  try {
+    from_text(
+        "joints:\n  - {name: j1, min_deg: 10, max_deg: -10, max_velocity_deg_s: 1, max_acceleration_deg_s2: 1}\n"
+        "home_deg: [0]\n");
+    FAIL() << "expected an error";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("joints[0].max_deg"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ForwardKinematics, PlanarTwoLinkMatchesHandComputation) {
+  const ArmModel m = planar();
+  Eigen::VectorXd q(2);
+  q << 30 * kDeg, 60 * kDeg;
+  // x = 0.5 cos30 + 0.3 cos90, y = 0.5 sin30 + 0.3 sin90
+  const Eigen::Vector3d p = tool_pose(m, q).translation();
+  EXPECT_NEAR(p.x(), 0.5 * std::cos(30 * kDeg), 1e-12);
+  EXPECT_NEAR(p.y(), 0.25 + 0.3, 1e-12);
+  EXPECT_NEAR(p.z(), 0.0, 1e-12);
+}
+
+TEST(ForwardKinematics, K1207iStraightAndElbowBent) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
+  // All joints at zero: the arm points straight up (-x in the base frame):
+  // 0.55 + 0.55 + 0.17 + 0.1905 m.
+  Eigen::Isometry3d t = tool_pose(m, q);
+  EXPECT_TRUE(t.translation().isApprox(Eigen::Vector3d(-1.4605, 0, 0), 1e-12)) << t.translation().transpose();
+  // Elbow at +90 deg: upper arm up, forearm, wrist and tool toward the tree (+y).
+  q[3] = 90 * kDeg;
+  t = tool_pose(m, q);
+  EXPECT_NEAR((t.translation() - Eigen::Vector3d(-0.55, 0.55 + 0.17 + 0.1905, 0)).norm(), 0.0, 1e-12)
+      << t.translation().transpose();
+  EXPECT_NEAR((t.linear().col(2) - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-12);
+  // The hand camera sits at the gripper centre, looking along the tool axis.
+  EXPECT_TRUE(camera_pose(m, q).isApprox(t, 1e-12));
+}
+
+TEST(Jacobian, MatchesFiniteDifferences) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q(7);
+  q << 0.3, -0.4, 0.5, 1.2, -0.7, 0.6, 0.2;
+  const Jacobian j = tool_jacobian(m, q);
+  const double h = 1e-7;
+  const Eigen::Isometry3d t0 = tool_pose(m, q);
+  for (int i = 0; i < 7; ++i) {
+    Eigen::VectorXd qh = q;
+    qh[i] += h;
+    const Eigen::Isometry3d th = tool_pose(m, qh);
+    const Eigen::Vector3d dp = (th.translation() - t0.translation()) / h;
+    const Eigen::Vector3d dw = orientation_error(th.linear(), t0.linear()) / h;
+    EXPECT_LT((dp - j.col(i).head<3>()).norm(), 1e-6) << "joint " << i;
+    EXPECT_LT((dw - j.col(i).tail<3>()).norm(), 1e-6) << "joint " << i;
+  }
+}
+
+TEST(DiffIk, ProducesTheRequestedTwist) {
+  const ArmModel m = k1207i();
+  Twist v;
+  v << 0.1, -0.2, 0.05, 0.1, 0.0, -0.2;
+  const Eigen::VectorXd qd = joint_velocity_for_twist(m, m.home, v);
+  EXPECT_LT((tool_jacobian(m, m.home) * qd - v).norm(), 1e-9);
+}
+
+TEST(DiffIk, TracksCartesianLineWithinTenthOfMillimetre) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q = m.home;
+  const Eigen::Isometry3d start = tool_pose(m, q);
+  const Eigen::Vector3d velocity(0.10, 0.15, -0.12);  // 0.22 m/s, a 0.44 m line in 2 s
+  const double dt = 0.01, gain = 20.0;
+  double worst = 0.0;
+  for (int k = 1; k <= 200; ++k) {
+    // Feed-forward velocity plus feedback on the error at the start of the period.
+    Eigen::Isometry3d desired = start;
+    desired.translation() += velocity * ((k - 1) * dt);
+    Twist cmd = gain * pose_error(desired, tool_pose(m, q));
+    cmd.head<3>() += velocity;
+    q += joint_velocity_for_twist(m, q, cmd) * dt;
+    desired.translation() += velocity * dt;
+    worst = std::max(worst, (tool_pose(m, q).translation() - desired.translation()).norm());
+    ASSERT_TRUE(m.within_limits(q));
+  }
+  EXPECT_LT(worst, 1e-4);
+  EXPECT_GT((tool_pose(m, q).translation() - start.translation()).norm(), 0.4);
+}
+
+TEST(DiffIk, NullSpaceMovesJointsAwayFromLimitsWithoutMovingTheTool) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q = m.home;
+  q[2] = 150 * kDeg;  // e0 roll near its 170 deg limit
+  const Eigen::Isometry3d start = tool_pose(m, q);
+  for (int k = 0; k < 300; ++k) {
+    Twist hold = 20.0 * pose_error(start, tool_pose(m, q));
+    q += joint_velocity_for_twist(m, q, hold) * 0.01;
+  }
+  EXPECT_LT(q[2], 120 * kDeg);
+  EXPECT_LT(pose_error(start, tool_pose(m, q)).norm(), 1e-4);
+}
+
+TEST(DiffIk, ThesisToolPositionsAreReachableTowardTheTree) {
+  const ArmModel m = k1207i();
+  // Tables 6-3 to 6-9: start poses and fruit positions [mm, base frame].
+  const double points[][3] = {{-655, 785, -251},       {-228.6, 1066.8, -540.2},
+                              {-68.6, 1168.4, -375.1}, {-412.6, 1011.4, -528.9},
+                              {549, 896, -203},        {40, 979, 61},
+                              {-715, 748, 47},         {-138, 1015, -223},
+                              {-538, 554, -920},       {39, 981, 69},
+                              {-266.7, 1016.0, -540.2}};
+  for (const auto& p : points) {
+    const Eigen::Isometry3d target = toward_tree(p[0], p[1], p[2]);
+    const auto q = solve_pose(m, target, m.home);
+    ASSERT_TRUE(q.has_value()) << p[0] << " " << p[1] << " " << p[2];
+    EXPECT_TRUE(m.within_limits(*q));
+    EXPECT_LT(pose_error(target, tool_pose(m, *q)).head<3>().norm(), 1e-4);
+  }
+}
+
+TEST(JointLimits, SpeedLimitScalesTheWholeVector) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd want = Eigen::VectorXd::Zero(7);
+  want[0] = 2.0;  // limit 60 deg/s = 1.047 rad/s
+  want[1] = 1.0;
+  Eigen::VectorXd previous = Eigen::VectorXd::Zero(7);  // already at the limited speed
+  previous[0] = 60 * kDeg;
+  previous[1] = 30 * kDeg;
+  const auto out = limit_joint_velocity(m, m.home, previous, want, 0.01);
+  EXPECT_TRUE(out.velocity_scaled);
+  EXPECT_NEAR(out.qdot[0], 60 * kDeg, 1e-12);
+  EXPECT_NEAR(out.qdot[1], 30 * kDeg, 1e-12);  // same direction
+}
+
+TEST(JointLimits, AccelerationLimitsTheChange) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd want = Eigen::VectorXd::Zero(7);
+  want[0] = 0.5;
+  const auto out = limit_joint_velocity(m, m.home, Eigen::VectorXd::Zero(7), want, 0.01);
+  EXPECT_TRUE(out.acceleration_scaled);
+  EXPECT_NEAR(out.qdot[0], 180 * kDeg * 0.01, 1e-12);  // a_max * dt
+}
+
+TEST(JointLimits, StopsAtPositionLimit) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q = m.home;
+  q[0] = 170 * kDeg - 0.001;  // 1 mrad from the limit
+  Eigen::VectorXd want = Eigen::VectorXd::Zero(7);
+  want[0] = 0.5;
+  auto out = limit_joint_velocity(m, q, want, want, 0.01);
+  EXPECT_TRUE(out.position_clipped);
+  // Position limits win over acceleration limits. Can stop in 1 mrad: v <= sqrt(2 a d) = sqrt(2 * pi * 0.001).
+  EXPECT_NEAR(out.qdot[0], std::sqrt(2 * 180 * kDeg * 0.001), 1e-9);
+  // Moving away from the limit is not restricted.
+  want[0] = -0.5;
+  out = limit_joint_velocity(m, q, want, want, 0.01);
+  EXPECT_FALSE(out.position_clipped);
+  EXPECT_DOUBLE_EQ(out.qdot[0], -0.5);
+}
+
+}  // namespace
+}  // namespace harvest::kinematics
