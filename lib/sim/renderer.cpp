@@ -1,0 +1,188 @@
+#include "sim/renderer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace harvest::sim {
+namespace {
+
+constexpr float kNear = 0.005f;  // [m] nothing closer to the lens is drawn
+constexpr std::size_t kNoiseTable = 1 << 16;
+
+uint64_t splitmix(uint64_t& s) {
+  uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+double shade(const Lighting& light, double cos_sun) {
+  return (light.ambient + light.diffuse * std::max(0.0, cos_sun)) * light.exposure;
+}
+
+}  // namespace
+
+Renderer::Renderer(const vision::CameraModel& model, double noise_std, uint64_t seed)
+    : model_(model), w_(model.width), h_(model.height), noise_state_(seed) {
+  model_.validate();
+  const std::size_t n = static_cast<std::size_t>(w_) * h_;
+  nx_.resize(n);
+  ny_.resize(n);
+  nx_min_ = ny_min_ = 1e9f;
+  nx_max_ = ny_max_ = -1e9f;
+  for (int y = 0; y < h_; ++y) {
+    for (int x = 0; x < w_; ++x) {
+      const Eigen::Vector2d m = model_.undistort_to_normalized(Eigen::Vector2d(x, y));
+      const std::size_t i = static_cast<std::size_t>(y) * w_ + x;
+      nx_[i] = static_cast<float>(m.x());
+      ny_[i] = static_cast<float>(m.y());
+      nx_min_ = std::min(nx_min_, nx_[i]);
+      nx_max_ = std::max(nx_max_, nx_[i]);
+      ny_min_ = std::min(ny_min_, ny_[i]);
+      ny_max_ = std::max(ny_max_, ny_[i]);
+    }
+  }
+  depth_.resize(n);
+  ids_.resize(n);
+  rgb_.resize(n);
+  image_.create(h_, w_, CV_8UC3);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, noise_std * 16.0);
+  noise_.resize(kNoiseTable);
+  for (auto& v : noise_) v = static_cast<int16_t>(std::clamp(gauss(rng), -32000.0, 32000.0));
+}
+
+Renderer::PixelBox Renderer::bounds(const Eigen::Vector3f& c, float r) const {
+  const PixelBox all{0, 0, w_ - 1, h_ - 1};
+  const PixelBox none{1, 1, 0, 0};
+  if (c.z() + r < kNear) return none;
+  if (c.z() - r <= kNear) return all;  // straddles the lens plane: test every pixel
+  // Conservative range of x/z and y/z over the sphere's bounding cube.
+  const float z0 = c.z() - r, z1 = c.z() + r;
+  float ax = std::min((c.x() - r) / z0, (c.x() - r) / z1), bx = std::max((c.x() + r) / z0, (c.x() + r) / z1);
+  float ay = std::min((c.y() - r) / z0, (c.y() - r) / z1), by = std::max((c.y() + r) / z0, (c.y() + r) / z1);
+  if (bx < nx_min_ || ax > nx_max_ || by < ny_min_ || ay > ny_max_) return none;
+  // Distortion is only trusted inside the field of view: clamp, then map a
+  // 3x3 grid of the normalised box to pixels and pad.
+  ax = std::max(ax, nx_min_);
+  bx = std::min(bx, nx_max_);
+  ay = std::max(ay, ny_min_);
+  by = std::min(by, ny_max_);
+  double px0 = 1e9, px1 = -1e9, py0 = 1e9, py1 = -1e9;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const Eigen::Vector2d p = model_.normalized_to_pixel(Eigen::Vector2d(ax + (bx - ax) * 0.5 * i, ay + (by - ay) * 0.5 * j));
+      px0 = std::min(px0, p.x());
+      px1 = std::max(px1, p.x());
+      py0 = std::min(py0, p.y());
+      py1 = std::max(py1, p.y());
+    }
+  }
+  constexpr double kPad = 3.0;
+  return {std::max(0, static_cast<int>(std::floor(px0 - kPad))), std::max(0, static_cast<int>(std::floor(py0 - kPad))),
+          std::min(w_ - 1, static_cast<int>(std::ceil(px1 + kPad))),
+          std::min(h_ - 1, static_cast<int>(std::ceil(py1 + kPad)))};
+}
+
+void Renderer::put(int i, float depth, const Vec3& rgb, int32_t id) {
+  if (depth >= depth_[i]) return;
+  depth_[i] = depth;
+  rgb_[i] = rgb;
+  ids_[i] = id;
+}
+
+void Renderer::draw_sphere(const Eigen::Vector3f& c, float r, const Vec3& albedo, int32_t id,
+                           const Eigen::Vector3f& sun, const Lighting& light) {
+  const PixelBox b = bounds(c, r);
+  const float cc = c.squaredNorm() - r * r;
+  for (int y = b.y0; y <= b.y1; ++y) {
+    for (int x = b.x0; x <= b.x1; ++x) {
+      const int i = y * w_ + x;
+      const Eigen::Vector3f d(nx_[i], ny_[i], 1.0f);
+      const float a = d.squaredNorm(), half_b = d.dot(c);
+      const float disc = half_b * half_b - a * cc;
+      if (disc < 0.0f) continue;
+      const float s = std::sqrt(disc);
+      float t = (half_b - s) / a;  // depth along the optical axis, since d.z = 1
+      bool inside = false;
+      if (t < kNear) {
+        t = (half_b + s) / a;  // the lens is inside the sphere: we see its inner wall
+        inside = true;
+        if (t < kNear) continue;
+      }
+      if (id >= 0) ++silhouette_[static_cast<std::size_t>(id)];
+      const Eigen::Vector3f normal = (t * d - c) / r;
+      const double lit = inside ? light.ambient * 0.3 : shade(light, normal.dot(sun));
+      put(i, t, albedo * lit, id);
+    }
+  }
+}
+
+void Renderer::draw_leaf(const Leaf& leaf, const Mat3& rt, const Vec3& t, const Eigen::Vector3f& sun,
+                         const Lighting& light) {
+  const Eigen::Vector3f c = (rt * leaf.centre + t).cast<float>();
+  const Eigen::Vector3f n = (rt * leaf.normal).cast<float>();
+  const Eigen::Vector3f u = (rt * leaf.u).cast<float>();
+  const Eigen::Vector3f v = (rt * leaf.v).cast<float>();
+  const float hl = static_cast<float>(leaf.half_length), hw = static_cast<float>(leaf.half_width);
+  const PixelBox b = bounds(c, hl);
+  const float nc = n.dot(c);
+  // Both faces of a blade catch light; the lit side is brighter.
+  const Vec3 colour = leaf.albedo_rgb * shade(light, std::abs(n.dot(sun)));
+  for (int y = b.y0; y <= b.y1; ++y) {
+    for (int x = b.x0; x <= b.x1; ++x) {
+      const int i = y * w_ + x;
+      const Eigen::Vector3f d(nx_[i], ny_[i], 1.0f);
+      const float nd = n.dot(d);
+      if (std::abs(nd) < 1e-7f) continue;
+      const float depth = nc / nd;
+      if (depth < kNear || depth >= depth_[i]) continue;
+      const Eigen::Vector3f q = depth * d - c;
+      const float qu = q.dot(u) / hl;
+      if (qu < -1.0f || qu > 1.0f) continue;
+      if (std::abs(q.dot(v)) > hw * (1.0f - qu * qu)) continue;
+      put(i, depth, colour, kLeaf);
+    }
+  }
+}
+
+const cv::Mat& Renderer::render(const Scene& scene, const Placement& pose) {
+  const Lighting& light = scene.lighting();
+  const Mat3 rt = pose.rotation.transpose();  // base -> camera (the rotation is orthogonal)
+  const Vec3 t = -rt * pose.position;
+  const Eigen::Vector3f sun = (rt * light.sun_direction).cast<float>();
+  const Vec3 sky(light.sky_rgb[0], light.sky_rgb[1], light.sky_rgb[2]);
+
+  std::fill(depth_.begin(), depth_.end(), std::numeric_limits<float>::infinity());
+  std::fill(ids_.begin(), ids_.end(), kSky);
+  std::fill(rgb_.begin(), rgb_.end(), sky * light.exposure);
+  visible_.assign(scene.fruit().size(), 0);
+  silhouette_.assign(scene.fruit().size(), 0);
+
+  const Vec3 bark(96, 84, 68);
+  for (const auto& bead : scene.beads())
+    draw_sphere((rt * bead.centre + t).cast<float>(), static_cast<float>(bead.radius), bark, kBranch, sun, light);
+  for (const auto& leaf : scene.leaves()) draw_leaf(leaf, rt, t, sun, light);
+  for (const auto& f : scene.fruit()) {
+    if (f.state == FruitState::kPicked || f.state == FruitState::kKnocked) continue;
+    draw_sphere((rt * f.position + t).cast<float>(), static_cast<float>(f.radius), f.albedo_rgb, f.id, sun, light);
+  }
+
+  // Write out with sensor noise; the table offset advances every frame.
+  const uint64_t offset = splitmix(noise_state_);
+  const std::size_t n = ids_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (ids_[i] >= 0) ++visible_[static_cast<std::size_t>(ids_[i])];
+    auto* px = image_.ptr<uint8_t>(0) + 3 * i;
+    const Vec3& c = rgb_[i];
+    for (int ch = 0; ch < 3; ++ch) {
+      const int16_t e = noise_[(offset + 3 * i + static_cast<std::size_t>(ch)) & (kNoiseTable - 1)];
+      const double value = c[2 - ch] + e / 16.0;  // BGR order
+      px[ch] = static_cast<uint8_t>(std::clamp(value + 0.5, 0.0, 255.0));
+    }
+  }
+  return image_;
+}
+
+}  // namespace harvest::sim

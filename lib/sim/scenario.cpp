@@ -1,0 +1,168 @@
+#include "sim/scenario.hpp"
+
+#include <cmath>
+
+namespace harvest::sim {
+namespace {
+
+constexpr double kMm = 1e-3;
+
+Vec3 vec3(const std::vector<double>& v, double scale = 1.0) { return Vec3(v[0], v[1], v[2]) * scale; }
+
+Vec3 vec3_mm(const config::Node& n, const std::string& key, const Vec3& fallback_m) {
+  const std::vector<double> fb{fallback_m.x() / kMm, fallback_m.y() / kMm, fallback_m.z() / kMm};
+  return vec3(n.numbers(key, fb, 3), kMm);
+}
+
+Box box_mm(const config::Node& n, const Box& fallback) {
+  Box b{vec3_mm(n, "region_min_mm", fallback.min), vec3_mm(n, "region_max_mm", fallback.max)};
+  for (int i = 0; i < 3; ++i)
+    if (b.min[i] > b.max[i]) n.fail("region_max_mm", "a box corner not below region_min_mm on every axis");
+  return b;
+}
+
+vision::CameraModel camera_model(const config::Node& n) {
+  vision::CameraModel m;
+  m.width = n.get<int>("image_width", 320, {16, 4096});
+  m.height = n.get<int>("image_height", 240, {16, 4096});
+  // Default: the thesis's KPCS20-CP1 (fx 833.57, fy 767.02 px at 640x480) scaled to the image width.
+  const double scale = m.width / 640.0;
+  m.fx = n.get<double>("fx", 833.57 * scale, {1.0, 1e5});
+  m.fy = n.get<double>("fy", 767.02 * scale, {1.0, 1e5});
+  m.cx = n.get<double>("cx", (m.width - 1) / 2.0, {0.0, double(m.width)});
+  m.cy = n.get<double>("cy", (m.height - 1) / 2.0, {0.0, double(m.height)});
+  m.skew = n.get<double>("skew", 0.0);
+  const auto dist = n.numbers("distortion_coefficients", {0, 0, 0, 0, 0}, 5);
+  std::copy(dist.begin(), dist.end(), m.dist.begin());
+  try {
+    m.validate();
+  } catch (const std::exception& e) {
+    n.fail("fx", std::string("a valid camera (") + e.what() + ")");
+  }
+  return m;
+}
+
+CameraSetup camera(const config::Node& n) {
+  CameraSetup c;
+  c.model = camera_model(n);
+  c.rate_hz = n.get<double>("rate_hz", c.rate_hz, {0.1, 120.0});
+  c.noise_std = n.get<double>("noise_std", c.noise_std, {0.0, 50.0});
+  c.encoding = n.choice("encoding", c.encoding, {"jpeg", "bgr8"});
+  c.jpeg_quality = n.get<int>("jpeg_quality", c.jpeg_quality, {10, 100});
+  return c;
+}
+
+Mat3 rotation(const config::Node& n, const std::string& key) {
+  const std::vector<double> id{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const auto v = n.numbers(key, id, 9);
+  Mat3 r;
+  r << v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8];
+  if (!(r * r.transpose()).isApprox(Mat3::Identity(), 1e-6)) n.fail(key, "an orthogonal 3x3 matrix (row-major)");
+  return r;
+}
+
+}  // namespace
+
+Scenario Scenario::from_config(const config::Node& root) {
+  Scenario s;
+  s.name = root.required<std::string>("name");
+  s.description = root.get<std::string>("description", "");
+  s.seed = static_cast<uint64_t>(root.get<int64_t>("seed", 1, {0, std::numeric_limits<int64_t>::max()}));
+  s.time_limit_s = root.get<double>("time_limit_s", s.time_limit_s, {1.0, 3600.0});
+
+  const auto size = root.child("fruit_size");
+  s.fruit_size.mean = size.get<double>("mean_mm", 70.5, {20.0, 200.0}) * kMm;
+  s.fruit_size.std = size.get<double>("std_mm", 2.5, {0.0, 50.0}) * kMm;
+  s.fruit_size.min = size.get<double>("min_mm", 65.0, {10.0, 200.0}) * kMm;
+  s.fruit_size.max = size.get<double>("max_mm", 76.0, {10.0, 200.0}) * kMm;
+  if (s.fruit_size.min > s.fruit_size.max) size.fail("max_mm", "a value >= min_mm");
+
+  if (root.has("fruit")) {
+    for (const auto& f : root.children("fruit")) {
+      FruitSpec spec;
+      spec.position = vec3(f.numbers("position_mm", 3), kMm);
+      spec.diameter = f.get<double>("diameter_mm", 0.0, {0.0, 200.0}) * kMm;
+      s.fruit.push_back(spec);
+    }
+  }
+  const auto rf = root.child("random_fruit");
+  s.random_fruit.count = rf.get<int>("count", 0, {0, 500});
+  s.random_fruit.region = box_mm(rf, s.random_fruit.region);
+  s.random_fruit.min_separation = rf.get<double>("min_separation_mm", 90.0, {0.0, 1000.0}) * kMm;
+
+  const auto c = root.child("canopy");
+  s.canopy.leaves = c.get<int>("leaves", 0, {0, 5000});
+  s.canopy.region = box_mm(c, s.canopy.region);
+  s.canopy.leaf_length_min = c.get<double>("leaf_length_min_mm", 50.0, {5.0, 500.0}) * kMm;
+  s.canopy.leaf_length_max = c.get<double>("leaf_length_max_mm", 90.0, {5.0, 500.0}) * kMm;
+  s.canopy.leaf_width_ratio = c.get<double>("leaf_width_ratio", 0.45, {0.05, 1.0});
+  s.canopy.fruit_clearance = c.get<double>("fruit_clearance_mm", 10.0, {-100.0, 500.0}) * kMm;
+  s.canopy.branches = c.get<int>("branches", 0, {0, 500});
+  s.canopy.branch_radius = c.get<double>("branch_radius_mm", 12.0, {1.0, 100.0}) * kMm;
+  s.canopy.trunk_base = vec3_mm(c, "trunk_base_mm", s.canopy.trunk_base);
+
+  const auto l = root.child("lighting");
+  s.lighting.sun_direction = vec3(l.numbers("sun_direction", {-0.5, -0.4, 0.3}, 3));
+  if (s.lighting.sun_direction.norm() < 1e-9) l.fail("sun_direction", "a non-zero vector");
+  s.lighting.sun_direction.normalize();
+  s.lighting.ambient = l.get<double>("ambient", s.lighting.ambient, {0.0, 2.0});
+  s.lighting.diffuse = l.get<double>("diffuse", s.lighting.diffuse, {0.0, 2.0});
+  s.lighting.exposure = l.get<double>("exposure", s.lighting.exposure, {0.05, 10.0});
+
+  const auto w = root.child("wind");
+  s.wind.amplitude = w.get<double>("amplitude_mm", 0.0, {0.0, 200.0}) * kMm;
+  s.wind.frequency_hz = w.get<double>("frequency_hz", s.wind.frequency_hz, {0.0, 20.0});
+
+  const auto cams = root.child("cameras");
+  s.fixed_camera = camera(cams.child("fixed"));
+  s.hand_camera = camera(cams.child("hand"));
+  const auto ext = cams.child("fixed_extrinsic_truth");
+  s.fixed_camera_truth.rotation = rotation(ext, "rotation");
+  s.fixed_camera_truth.position = vec3_mm(ext, "translation_mm", Vec3::Zero());
+
+  const auto a = root.child("arm");
+  s.arm.start_tool_position = vec3_mm(a, "start_tool_position_mm", s.arm.start_tool_position);
+  s.arm.start_look_at = vec3_mm(a, "start_look_at_mm", s.arm.start_look_at);
+  if ((s.arm.start_look_at - s.arm.start_tool_position).norm() < 1e-3)
+    a.fail("start_look_at_mm", "a point away from start_tool_position_mm");
+  s.arm.reach = a.get<double>("reach_mm", 1350.0, {100.0, 5000.0}) * kMm;
+  s.arm.max_linear_speed = a.get<double>("max_linear_speed", s.arm.max_linear_speed, {0.001, 5.0});
+  s.arm.max_angular_speed = a.get<double>("max_angular_speed", s.arm.max_angular_speed, {0.001, 10.0});
+  s.arm.max_linear_accel = a.get<double>("max_linear_accel", s.arm.max_linear_accel, {0.01, 50.0});
+  s.arm.hand_camera_offset = vec3_mm(a, "hand_camera_offset_mm", s.arm.hand_camera_offset);
+
+  const auto g = root.child("gripper");
+  s.gripper.close_time_s = g.get<double>("close_time_s", s.gripper.close_time_s, {0.01, 10.0});
+  s.gripper.open_time_s = g.get<double>("open_time_s", s.gripper.open_time_s, {0.01, 10.0});
+  s.gripper.capture_radius = g.get<double>("capture_radius_mm", 22.0, {1.0, 200.0}) * kMm;
+  s.gripper.capture_axial_min = g.get<double>("capture_axial_min_mm", -30.0, {-200.0, 200.0}) * kMm;
+  s.gripper.capture_axial_max = g.get<double>("capture_axial_max_mm", 35.0, {-200.0, 200.0}) * kMm;
+  s.gripper.knock_radius = g.get<double>("knock_radius_mm", 50.0, {1.0, 500.0}) * kMm;
+  s.gripper.detach_distance = g.get<double>("detach_distance_mm", 30.0, {1.0, 500.0}) * kMm;
+  s.gripper.palm_offset = g.get<double>("palm_offset_mm", 50.0, {0.0, 500.0}) * kMm;
+  if (s.gripper.capture_axial_min >= s.gripper.capture_axial_max)
+    g.fail("capture_axial_max_mm", "a value above capture_axial_min_mm");
+
+  const auto ir = root.child("ir");
+  s.ir.gain = ir.get<double>("gain", s.ir.gain, {1.0, 1e7});
+  s.ir.offset_mm = ir.get<double>("offset_mm", s.ir.offset_mm, {0.0, 1000.0});
+  s.ir.peak_range = ir.get<double>("peak_range_mm", 30.0, {0.0, 1000.0}) * kMm;
+  s.ir.max_range = ir.get<double>("max_range_mm", 350.0, {1.0, 5000.0}) * kMm;
+  s.ir.noise_std = ir.get<double>("noise_std", s.ir.noise_std, {0.0, 200.0});
+  s.ir.rate_hz = ir.get<double>("rate_hz", s.ir.rate_hz, {1.0, 1000.0});
+
+  const auto f = root.child("faults");
+  s.faults.camera_dropout_start_s = f.get<double>("camera_dropout_start_s", -1.0);
+  s.faults.camera_dropout_duration_s = f.get<double>("camera_dropout_duration_s", 0.0, {0.0, 3600.0});
+  s.faults.ir_stuck_start_s = f.get<double>("ir_stuck_start_s", -1.0);
+  return s;
+}
+
+Scenario load_scenario(const std::string& path) {
+  const auto doc = config::Document::load_file(path);
+  Scenario s = Scenario::from_config(doc.root());
+  doc.check_unused();
+  return s;
+}
+
+}  // namespace harvest::sim

@@ -1,0 +1,145 @@
+// A simulation scenario: everything the simulator knows and the software
+// under test does not (true fruit, true camera calibration and poses), read
+// from config/scenarios/*.yaml through lib/config. Lengths in the file are in
+// millimetres where the key says `_mm`; everything here is SI.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "config/config.hpp"
+#include "vision/camera_model.hpp"
+
+namespace harvest::sim {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+
+// A rigid placement of a camera: p_base = rotation * p_camera + position.
+// `rotation` may be improper (the thesis's R_ef has determinant -1); it only
+// has to be orthogonal, which the loader checks.
+struct Placement {
+  Mat3 rotation = Mat3::Identity();
+  Vec3 position = Vec3::Zero();
+};
+
+struct CameraSetup {
+  vision::CameraModel model;  // the TRUE intrinsics and distortion
+  double rate_hz = 30.0;
+  double noise_std = 2.0;      // sensor noise [grey levels]
+  std::string encoding = "jpeg";  // jpeg | bgr8
+  int jpeg_quality = 85;
+};
+
+struct FruitSpec {
+  Vec3 position;          // base frame [m]
+  double diameter = 0.0;  // [m]; 0: drawn from the size distribution
+};
+
+struct SizeDistribution {
+  double mean = 0.0705, std = 0.0025, min = 0.065, max = 0.076;  // [m]
+};
+
+struct Box {
+  Vec3 min = Vec3::Zero();
+  Vec3 max = Vec3::Zero();
+};
+
+struct RandomFruit {
+  int count = 0;
+  Box region;                     // base frame [m]
+  double min_separation = 0.09;   // centre to centre [m]
+};
+
+struct Canopy {
+  int leaves = 0;
+  Box region;                     // where leaf centres are drawn [m]
+  double leaf_length_min = 0.05, leaf_length_max = 0.09;  // [m]
+  double leaf_width_ratio = 0.45;
+  double fruit_clearance = 0.01;  // leaves keep this far from explicit fruit surfaces [m]
+  int branches = 0;
+  double branch_radius = 0.012;   // [m]
+  Vec3 trunk_base = Vec3::Zero(); // branches grow from here towards the fruit [m]
+  std::vector<std::array<double, 3>> leaf_colours_rgb{{46, 96, 34}, {64, 118, 44}, {34, 74, 28}, {88, 126, 52}};
+};
+
+struct Lighting {
+  Vec3 sun_direction = Vec3(-0.5, -0.4, 0.3).normalized();  // towards the sun, base frame
+  double ambient = 0.45;
+  double diffuse = 0.55;
+  double exposure = 1.0;
+  std::array<double, 3> sky_rgb{150, 190, 235};
+};
+
+struct Wind {
+  double amplitude = 0.0;  // fruit sway amplitude [m]
+  double frequency_hz = 0.5;
+};
+
+struct ArmSetup {
+  Vec3 start_tool_position = Vec3(-0.655, 0.785, -0.251);
+  Vec3 start_look_at = Vec3(-0.2286, 1.0668, -0.5402);
+  double reach = 1.35;                   // fruit farther than this from the base origin are unreachable [m]
+  double max_linear_speed = 0.381;       // [m/s]
+  double max_angular_speed = 1.0;        // [rad/s]
+  double max_linear_accel = 1.5;         // [m/s^2]
+  Vec3 hand_camera_offset = Vec3::Zero();  // in the tool frame [m]
+};
+
+struct GripperSetup {
+  double close_time_s = 0.6;
+  double open_time_s = 0.6;
+  double capture_radius = 0.022;     // lateral tolerance of fruit centre to gripper axis [m]
+  double capture_axial_min = -0.03;  // fruit centre along tool z relative to the TCP [m]
+  double capture_axial_max = 0.035;
+  double knock_radius = 0.05;        // closing with a fruit this near but outside capture knocks it off [m]
+  double detach_distance = 0.03;     // pull this far from the stem point and the fruit comes off [m]
+  double palm_offset = 0.05;         // palm (IR sensor) behind the TCP along tool z [m]
+};
+
+struct IrSetup {
+  // raw = gain / (range_mm + offset_mm) above the peak range, falling linearly
+  // to zero below it (the fold-back of a triangulating IR sensor); 10-bit ADC.
+  double gain = 26000.0;
+  double offset_mm = 4.0;
+  double peak_range = 0.03;    // [m]
+  double max_range = 0.35;     // beyond this the sensor sees nothing [m]
+  double noise_std = 4.0;      // [counts]
+  double rate_hz = 50.0;
+};
+
+struct Faults {
+  double camera_dropout_start_s = -1.0;  // fixed camera silent from this time ...
+  double camera_dropout_duration_s = 0.0;
+  double ir_stuck_start_s = -1.0;        // IR raw frozen from this time on
+};
+
+struct Scenario {
+  std::string name;
+  std::string description;
+  uint64_t seed = 1;
+  double time_limit_s = 60.0;  // a run ends after this much simulated time
+  SizeDistribution fruit_size;
+  std::vector<FruitSpec> fruit;
+  RandomFruit random_fruit;
+  Canopy canopy;
+  Lighting lighting;
+  Wind wind;
+  CameraSetup fixed_camera, hand_camera;
+  Placement fixed_camera_truth;        // true extrinsic (the software has its own)
+  ArmSetup arm;
+  GripperSetup gripper;
+  IrSetup ir;
+  Faults faults;
+
+  static Scenario from_config(const config::Node& node);
+};
+
+// Loads a scenario file and rejects unknown keys. Throws config::Error.
+Scenario load_scenario(const std::string& path);
+
+}  // namespace harvest::sim

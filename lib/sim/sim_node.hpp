@@ -1,0 +1,81 @@
+// The simulator as a node: owns the scene, renders both cameras on its timers,
+// runs the gripper/IR physics, and publishes ground truth (SIM_TRUTH).
+//
+// Hardware mode "direct": the simulator also stands in for the robot link
+// (follows ROBOT_COMMAND with a Cartesian arm, publishes ROBOT_STATE) and for
+// the end-effector bridge (follows GRIPPER_COMMAND, publishes IR_RANGE and
+// GRIPPER_STATE), so perception and the servo controller run against it with
+// no device protocol in between.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "harvest/harvest_status_t.hpp"
+#include "harvest/image_t.hpp"
+#include "runtime/node.hpp"
+#include "sim/cartesian_arm.hpp"
+#include "sim/hand.hpp"
+#include "sim/renderer.hpp"
+#include "sim/scene.hpp"
+
+namespace harvest::sim {
+
+inline constexpr const char* kSimTruthChannel = "SIM_TRUTH";  // sim_truth_t
+
+struct SimConfig {
+  std::string scenario_path;
+  int run = 0;
+  std::string hardware = "direct";  // only "direct" so far (see docs/simulator.md)
+  double physics_rate_hz = 100.0;
+  double robot_state_rate_hz = 100.0;
+  double truth_rate_hz = 5.0;
+  bool stop_when_done = true;  // end the process when the run is over
+  double done_grace_s = 2.0;   // keep running this long after the last fruit is decided
+
+  static SimConfig from_config(const config::Node& node);
+};
+
+class SimNode final : public rt::Node {
+ public:
+  SimNode(SimConfig config, Scenario scenario);
+
+  const Scene& scene() const { return scene_; }
+  const Gripper& gripper() const { return gripper_; }
+  const CartesianArm& arm() const { return arm_; }
+
+  // Encodes a rendered BGR frame as the camera drivers publish it.
+  static image_t make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality);
+
+ protected:
+  void on_attach() override;
+
+ private:
+  double sim_time() const;  // [s] since the node started
+  void physics_tick();
+  void render_camera(bool fixed);
+  void publish_truth();
+  void publish_robot_state();
+  void publish_ir();
+  void publish_gripper_state();
+  void on_harvest_status(const harvest_status_t& status);
+  void check_done();
+
+  SimConfig config_;
+  Scenario scenario_;
+  Scene scene_;
+  CartesianArm arm_;
+  Gripper gripper_;
+  IrSensor ir_;
+  Renderer fixed_renderer_, hand_renderer_;
+  std::vector<float> fixed_visible_fraction_;
+  std::optional<double> ir_range_;
+  int ir_stuck_raw_ = -1;
+  rt::Micros start_ = 0;
+  std::string controller_state_;
+  std::vector<FruitState> last_states_;
+  std::optional<double> done_since_;
+};
+
+}  // namespace harvest::sim
