@@ -1,0 +1,223 @@
+#include "vision/reconstructor.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "config/config.hpp"
+
+namespace harvest::vision {
+
+namespace {
+
+// allow_reflection: the thesis's eq. 4-1 matrix has determinant -1 (its fixed
+// camera frame and base frame differ in handedness), and it is the contract.
+Eigen::Isometry3d read_transform(const config::Node& n, const std::string& rotation_key,
+                                 const std::string& translation_key, const Eigen::Isometry3d& fallback,
+                                 bool allow_reflection) {
+  const Eigen::Matrix3d r0 = fallback.linear();
+  const Eigen::Vector3d t0 = fallback.translation() * 1000.0;
+  const std::vector<double> r = n.numbers(rotation_key, std::vector<double>(r0.data(), r0.data() + 9), 9);
+  const std::vector<double> t = n.numbers(translation_key, {t0.x(), t0.y(), t0.z()}, 3);
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  // Row-major in the file, as written on paper.
+  out.linear() << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
+  if ((out.linear() * out.linear().transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-3)
+    n.fail(rotation_key, "an orthonormal 3x3 matrix, row-major");
+  if (!allow_reflection && out.linear().determinant() < 0)
+    n.fail(rotation_key, "a rotation matrix (determinant +1), row-major");
+  out.translation() = Eigen::Vector3d(t[0], t[1], t[2]) / 1000.0;
+  return out;
+}
+
+CameraModel read_camera(const config::Node& n, const std::string& fallback) {
+  const auto path = n.file_path("calibration", fallback);
+  try {
+    return CameraModel::load(path);
+  } catch (const std::exception& e) {
+    n.fail("calibration", std::string("a readable camera calibration (") + e.what() + ")");
+  }
+}
+
+void fill_pose_estimate(target_t& t, const PointEstimate& cam, const PointEstimate& base) {
+  for (int i = 0; i < 3; ++i) {
+    t.position_camera[i] = cam.position[i];
+    t.position_base[i] = base.position[i];
+    for (int j = 0; j < 3; ++j) t.covariance_base[3 * i + j] = base.covariance(i, j);
+  }
+  t.depth_m = cam.position.z();
+}
+
+}  // namespace
+
+Eigen::Isometry3d to_isometry(const pose_t& pose) {
+  Eigen::Quaterniond q(pose.orientation[0], pose.orientation[1], pose.orientation[2], pose.orientation[3]);
+  if (q.norm() < 1e-9) q = Eigen::Quaterniond::Identity();
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = q.normalized().toRotationMatrix();
+  t.translation() = Eigen::Vector3d(pose.position[0], pose.position[1], pose.position[2]);
+  return t;
+}
+
+ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
+  ReconstructorConfig c;
+  const config::Node fixed = n.child("camera_fixed");
+  c.fixed_camera = read_camera(fixed, "config/cameras/fixed.yaml");
+  c.fixed_extrinsic = read_transform(fixed, "extrinsic_rotation", "extrinsic_translation_mm", c.fixed_extrinsic, true);
+  c.fixed_extrinsic_sigma_m = fixed.get("extrinsic_sigma_m", c.fixed_extrinsic_sigma_m, {0.0, 1.0});
+  const config::Node hand = n.child("camera_hand");
+  c.hand_camera = read_camera(hand, "config/cameras/hand.yaml");
+  c.hand_eye = read_transform(hand, "hand_eye_rotation", "hand_eye_translation_mm", c.hand_eye, false);
+  c.hand_pose_sigma_m = hand.get("pose_sigma_m", c.hand_pose_sigma_m, {0.0, 1.0});
+  c.max_state_gap_us = 1000 * hand.get<int64_t>("max_state_gap_ms", c.max_state_gap_us / 1000, {1, 10'000});
+  const config::Node fruit = n.child("fruit");
+  c.fruit.diameter_mean_m = fruit.get("diameter_mean_m", c.fruit.diameter_mean_m, {0.01, 0.5});
+  c.fruit.diameter_std_m = fruit.get("diameter_std_m", c.fruit.diameter_std_m, {0.0, 0.1});
+  const config::Node noise = n.child("pixel_noise");
+  c.noise.centre_px = noise.get("centre_px", c.noise.centre_px, {0.0, 100.0});
+  c.noise.diameter_px = noise.get("diameter_px", c.noise.diameter_px, {0.0, 100.0});
+  const config::Node tracking = n.child("tracking");
+  c.track_gate_diameters = tracking.get("gate_diameters", c.track_gate_diameters, {0.01, 100.0});
+  c.track_max_missed = tracking.get("max_missed_frames", c.track_max_missed, {0, 100000});
+  c.association_gate_chi2 = tracking.get("association_gate_chi2", c.association_gate_chi2, {0.0, 1e6});
+  c.fixed_memory_us = 1'000'000 * tracking.get<int64_t>("fixed_memory_s", c.fixed_memory_us / 1'000'000, {0, 86400});
+  return c;
+}
+
+Reconstructor::Reconstructor(ReconstructorConfig config)
+    : config_(std::move(config)),
+      fixed_tracker_(config_.track_gate_diameters, config_.track_max_missed, 0),
+      hand_tracker_(config_.track_gate_diameters, config_.track_max_missed, 0),
+      associator_(config_.association_gate_chi2) {}
+
+void Reconstructor::on_robot_state(const robot_state_t& state) {
+  tool_poses_.add(state.header.utime, to_isometry(state.tool_pose));
+}
+
+targets_t Reconstructor::make_targets(const fruit_detections_t& d, const CameraModel& cam,
+                                      const Eigen::Isometry3d& cam_to_base, double transform_sigma,
+                                      const std::string& camera, std::vector<Estimate3d>& estimates) const {
+  targets_t out;
+  out.header.utime = d.header.utime;
+  out.header.frame_id = "base";
+  out.header.source_seq = d.header.seq;
+  out.source_camera = camera;
+  out.selected_fruit_id = -1;
+  for (const fruit_t& f : d.fruits) {
+    const PointEstimate in_cam =
+        reconstruct_in_camera(cam, f.u_px, f.v_px, f.diameter_px, config_.fruit, config_.noise);
+    const PointEstimate in_base = transform(cam_to_base, in_cam, transform_sigma);
+    target_t t{};
+    t.fruit_id = -1;
+    t.source_camera = camera;
+    fill_pose_estimate(t, in_cam, in_base);
+    t.diameter_m = config_.fruit.diameter_mean_m;
+    t.u_px = f.u_px;
+    t.v_px = f.v_px;
+    t.diameter_px = f.diameter_px;
+    t.confidence = f.confidence;
+    t.cost = f.cost;
+    t.selected = false;
+    out.targets.push_back(t);
+    estimates.push_back({in_base.position, in_base.covariance});
+  }
+  out.num_targets = static_cast<int32_t>(out.targets.size());
+  return out;
+}
+
+namespace {
+
+std::optional<std::string> check_detections(const fruit_detections_t& d) {
+  if (d.status != fruit_detections_t::STATUS_OK)
+    return "camera '" + d.camera + "' image seq " + std::to_string(d.header.source_seq) + " was bad: " + d.status_text;
+  if (d.num_fruits != static_cast<int32_t>(d.fruits.size())) return "inconsistent num_fruits";
+  for (const fruit_t& f : d.fruits)
+    if (!(f.diameter_px > 0) || !std::isfinite(f.u_px) || !std::isfinite(f.v_px) || !std::isfinite(f.diameter_px))
+      return "camera '" + d.camera + "': fruit with invalid centre or diameter";
+  return std::nullopt;
+}
+
+std::vector<PixelObservation> observations(const fruit_detections_t& d) {
+  std::vector<PixelObservation> obs;
+  for (const fruit_t& f : d.fruits) obs.push_back({f.u_px, f.v_px, f.diameter_px});
+  return obs;
+}
+
+void select(targets_t& t, int32_t id) {
+  t.selected_fruit_id = -1;
+  for (target_t& x : t.targets) {
+    x.selected = x.fruit_id == id && id >= 0;
+    if (x.selected) t.selected_fruit_id = id;
+  }
+}
+
+bool contains(const targets_t& t, int32_t id) {
+  return id >= 0 &&
+         std::any_of(t.targets.begin(), t.targets.end(), [id](const target_t& x) { return x.fruit_id == id; });
+}
+
+}  // namespace
+
+std::optional<targets_t> Reconstructor::on_fixed(const fruit_detections_t& d) {
+  if (auto err = check_detections(d)) {
+    last_error_ = *err;
+    return std::nullopt;
+  }
+  const std::vector<int32_t> ids = fixed_tracker_.update(observations(d));
+  std::vector<Estimate3d> estimates;
+  targets_t out = make_targets(d, config_.fixed_camera, config_.fixed_extrinsic, config_.fixed_extrinsic_sigma_m,
+                               "fixed", estimates);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    out.targets[i].fruit_id = ids[i];
+    known_[ids[i]] = estimates[i];
+    last_seen_[ids[i]] = d.header.utime;
+  }
+  for (auto it = last_seen_.begin(); it != last_seen_.end();) {
+    if (d.header.utime - it->second > config_.fixed_memory_us) {
+      known_.erase(it->first);
+      it = last_seen_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  // Keep the fruit the controller is after; else the detector's choice.
+  int32_t chosen = -1;
+  if (contains(out, current_fruit_id_))
+    chosen = current_fruit_id_;
+  else if (d.selected_index >= 0 && d.selected_index < out.num_targets)
+    chosen = out.targets[static_cast<std::size_t>(d.selected_index)].fruit_id;
+  select(out, chosen);
+  fixed_selected_id_ = chosen;
+  return out;
+}
+
+std::optional<targets_t> Reconstructor::on_hand(const fruit_detections_t& d) {
+  if (auto err = check_detections(d)) {
+    last_error_ = *err;
+    return std::nullopt;
+  }
+  const auto tool = tool_poses_.at(d.header.utime, config_.max_state_gap_us);
+  if (!tool) {
+    last_error_ = "no robot state within " + std::to_string(config_.max_state_gap_us / 1000) +
+                  " ms of hand image time " + std::to_string(d.header.utime);
+    return std::nullopt;
+  }
+  const std::vector<int32_t> hand_ids = hand_tracker_.update(observations(d));
+  associator_.prune(hand_tracker_);
+  std::vector<Estimate3d> estimates;
+  targets_t out =
+      make_targets(d, config_.hand_camera, *tool * config_.hand_eye, config_.hand_pose_sigma_m, "hand", estimates);
+  const auto global = associator_.associate(hand_ids, estimates, known_);
+  for (std::size_t i = 0; i < hand_ids.size(); ++i)
+    out.targets[i].fruit_id = global[i] ? *global[i] : kUnassociatedIdBase + hand_ids[i];
+  int32_t chosen = -1;
+  if (contains(out, current_fruit_id_))
+    chosen = current_fruit_id_;
+  else if (contains(out, fixed_selected_id_))
+    chosen = fixed_selected_id_;
+  else if (d.selected_index >= 0 && d.selected_index < out.num_targets)
+    chosen = out.targets[static_cast<std::size_t>(d.selected_index)].fruit_id;
+  select(out, chosen);
+  return out;
+}
+
+}  // namespace harvest::vision

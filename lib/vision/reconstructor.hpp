@@ -1,0 +1,85 @@
+// The reconstructor's logic (no transport): fruit detections of the fixed
+// camera and the camera-in-hand -> 3D targets in the robot base frame, with
+// fruit identity (see docs/perception.md).
+//
+// Fixed camera: p_base = R_ef p_cam + T_ef (eq. 4-1, 6-13); its pixel tracks
+// give the global fruit ids. Camera-in-hand: p_base = T_base_tool(t) T_tool_cam
+// p_cam with the tool pose interpolated at the image time; its detections take
+// the global id of the fixed-camera fruit they match in 3D, or 100000 + their
+// hand track id when they match none.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "harvest/fruit_detections_t.hpp"
+#include "harvest/harvest_status_t.hpp"
+#include "harvest/robot_state_t.hpp"
+#include "harvest/targets_t.hpp"
+#include "vision/camera_model.hpp"
+#include "vision/pose_history.hpp"
+#include "vision/reconstruction.hpp"
+#include "vision/tracking.hpp"
+
+namespace harvest::config {
+class Node;
+}
+
+namespace harvest::vision {
+
+inline constexpr int32_t kUnassociatedIdBase = 100000;
+
+struct ReconstructorConfig {
+  CameraModel fixed_camera;
+  Eigen::Isometry3d fixed_extrinsic = thesis_fixed_camera_extrinsic();  // camera -> base
+  double fixed_extrinsic_sigma_m = 0.03;                                // calibration error, isotropic 1 sigma
+  CameraModel hand_camera;
+  Eigen::Isometry3d hand_eye = Eigen::Isometry3d::Identity();  // camera -> tool
+  double hand_pose_sigma_m = 0.005;
+  int64_t max_state_gap_us = 100'000;  // robot states around an image at most this far apart
+  FruitStatistics fruit;
+  PixelNoise noise;
+  double track_gate_diameters = 1.0;
+  int track_max_missed = 10;
+  double association_gate_chi2 = 11.34;  // 99 % for 3 degrees of freedom
+  int64_t fixed_memory_us = 60'000'000;  // keep a fixed-camera fruit this long after last seen
+
+  static ReconstructorConfig from_yaml(const config::Node& node);
+};
+
+class Reconstructor {
+ public:
+  explicit Reconstructor(ReconstructorConfig config);
+
+  void on_robot_state(const robot_state_t& state);
+  void on_harvest_status(const harvest_status_t& status) { current_fruit_id_ = status.current_fruit_id; }
+  // nullopt (with last_error() set) when the detections cannot be placed in
+  // 3D: bad image, or for the hand camera no robot state near the image time.
+  std::optional<targets_t> on_fixed(const fruit_detections_t& detections);
+  std::optional<targets_t> on_hand(const fruit_detections_t& detections);
+
+  const std::string& last_error() const { return last_error_; }
+  // Latest base-frame estimate of each fixed-camera fruit by global id.
+  const std::map<int32_t, Estimate3d>& known_fruit() const { return known_; }
+
+ private:
+  targets_t make_targets(const fruit_detections_t& d, const CameraModel& cam, const Eigen::Isometry3d& cam_to_base,
+                         double transform_sigma, const std::string& camera, std::vector<Estimate3d>& estimates) const;
+
+  ReconstructorConfig config_;
+  PoseHistory tool_poses_;
+  PixelTracker fixed_tracker_, hand_tracker_;
+  HandAssociator associator_;
+  std::map<int32_t, Estimate3d> known_;
+  std::map<int32_t, int64_t> last_seen_;
+  int32_t current_fruit_id_ = -1;
+  int32_t fixed_selected_id_ = -1;
+  std::string last_error_;
+};
+
+Eigen::Isometry3d to_isometry(const pose_t& pose);
+
+}  // namespace harvest::vision
