@@ -1,0 +1,118 @@
+// CANopen master for a chain of CiA 402 drives in cyclic synchronous velocity
+// mode: configures each drive by SDO, starts them with NMT, then every SYNC
+// period sends each drive's RPDO1 (controlword + target velocity) followed by
+// SYNC, and reads back TPDO1/TPDO2, heartbeats and EMCY.
+//
+// It reports, and latches, what can go wrong with a drive (fault state, EMCY,
+// lost heartbeat, missing PDOs); what to do about it is the caller's decision
+// (lib/arm's motion safety quick-stops every drive). No threads, no clock of
+// its own: the caller passes now() to every call.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "can/can_bus.hpp"
+#include "canopen/cia402.hpp"
+#include "canopen/sdo_client.hpp"
+#include "config/config.hpp"
+
+namespace harvest::canopen {
+
+struct DriveConfig {
+  uint8_t node_id = 1;
+  double counts_per_radian = 1.0;  // encoder counts per joint radian (gear included; sign = direction)
+  int32_t zero_offset_counts = 0;  // counts at joint angle 0
+};
+
+struct MasterConfig {
+  std::vector<DriveConfig> drives;
+  Micros sync_period = 10'000;         // 100 Hz
+  uint16_t heartbeat_ms = 50;          // producer time written to each drive
+  Micros heartbeat_timeout = 200'000;  // consumer: lost if silent this long
+  Micros pdo_timeout = 100'000;        // running drive sent no TPDO this long
+  Micros sdo_timeout = 200'000;
+
+  // Reads the `can` mapping of a robot-link configuration. Throws config::Error.
+  static MasterConfig from_config(const config::Node& node);
+};
+
+enum class MasterPhase { kIdle, kConfiguring, kRunning, kFailed };
+
+struct DriveStatus {
+  Cia402State state = Cia402State::kNotReadyToSwitchOn;
+  uint16_t statusword = 0;
+  bool seen_pdo = false;
+  NmtState nmt = NmtState::kBootUp;
+  Micros last_heartbeat = 0;
+  Micros last_tpdo = 0;
+  int32_t position_counts = 0;
+  int32_t velocity_counts = 0;
+  double position = 0.0;  // [rad]
+  double velocity = 0.0;  // [rad/s]
+  uint16_t controlword = 0;
+  double velocity_command = 0.0;  // [rad/s], as sent
+  uint16_t error_code = 0;        // last EMCY error code
+  // Latched until clear_faults():
+  bool fault = false;           // drive entered Fault / fault reaction
+  bool emcy = false;            // EMCY with a non-zero error code
+  bool heartbeat_lost = false;  // no heartbeat within the timeout
+  bool pdo_lost = false;        // no TPDO within the timeout while running
+  std::string fault_text;
+  bool faulted() const { return fault || emcy || heartbeat_lost || pdo_lost; }
+};
+
+class Master {
+ public:
+  Master(can::CanBus& bus, MasterConfig config);
+
+  // Pre-operational, SDO configuration of every drive, then NMT start.
+  void start(Micros now);
+  // Reads every frame waiting on the bus.
+  void drain(Micros now);
+  void handle_frame(const CanFrame& frame, Micros now);
+  // Once per SYNC period: supervision, state machine, RPDOs, then SYNC.
+  void sync(Micros now);
+
+  void set_goal(DriveGoal goal) { goal_ = goal; }
+  DriveGoal goal() const { return goal_; }
+  // Joint velocities [rad/s] to send; ignored for drives not in operation enabled.
+  void set_velocities(const std::vector<double>& rad_per_s);
+  // Clears latched faults; drives in Fault are then reset on the way to the goal.
+  void clear_faults();
+  // NMT stop for every drive (last act on exit, after they are disabled).
+  void stop_nodes();
+
+  MasterPhase phase() const { return phase_; }
+  const std::string& error() const { return error_; }
+  const std::vector<DriveStatus>& drives() const { return drives_; }
+  const MasterConfig& config() const { return config_; }
+  bool any_fault() const;
+  bool all_in(Cia402State s) const;
+  Micros last_sync() const { return last_sync_; }
+  int64_t sync_count() const { return sync_count_; }
+  // Faults latched since the last call (for logging), e.g. "joint 3 (node 3): EMCY 0x2310 current".
+  std::vector<std::string> take_events();
+
+ private:
+  void configure_next(std::size_t drive, std::size_t step, Micros now);
+  void latch(std::size_t i, bool DriveStatus::*flag, const std::string& text);
+  int index_of_node(uint8_t node) const;
+  void send(const CanFrame& f);
+
+  can::CanBus& bus_;
+  MasterConfig config_;
+  SdoClient sdo_;
+  std::vector<DriveStatus> drives_;
+  MasterPhase phase_ = MasterPhase::kIdle;
+  std::string error_;
+  DriveGoal goal_ = DriveGoal::kDisabled;
+  std::size_t configured_ = 0;
+  Micros started_ = 0;
+  Micros last_sync_ = 0;
+  int64_t sync_count_ = 0;
+  std::vector<std::string> events_;
+};
+
+}  // namespace harvest::canopen
