@@ -178,9 +178,26 @@ TEST_F(ProcessTest, LiveProcessHeartbeatsProcessesAndStopsOnSigterm) {
   // Unprefixed channels are someone else's arm.
   pub.publish("IN", &m);
 
+  // Malformed messages on a subscribed channel: counted, reported, no crash.
+  const uint8_t garbage[] = {1, 2, 3, 4, 5};
+  pub.publish("ARM2_IN", garbage, sizeof garbage);
+  auto truncated = rt::encode(m);
+  pub.publish("ARM2_IN", truncated.data(), static_cast<unsigned>(truncated.size() - 3));
+  pub.publish("ARM2_IN", &m);  // and the next good one is still processed
+  ASSERT_TRUE(ht::eventually([&] { return recorder.on("ARM2_OUT").size() == 2; }, 5s)) << p.output();
+  ASSERT_TRUE(ht::eventually(
+      [&] {
+        auto s = rt::decode<process_status_t>(recorder.on("ARM2_PROCESS_STATUS").back().data);
+        return s->decode_errors == 2;
+      },
+      5s));
   const auto status = rt::decode<process_status_t>(recorder.on("ARM2_PROCESS_STATUS").back().data);
+  EXPECT_EQ(status->state, +process_status_t::STATE_DEGRADED);
+  EXPECT_NE(status->message.find("2 malformed messages dropped"), std::string::npos) << status->message;
   EXPECT_EQ(status->pid, p.pid());
   EXPECT_EQ(status->process, "harvest-test-scale");
+  EXPECT_TRUE(p.running());
   EXPECT_EQ(p.stop(5s), 0) << p.output();
-  EXPECT_EQ(recorder.on("ARM2_OUT").size(), 1u);
+  EXPECT_EQ(recorder.on("ARM2_OUT").size(), 2u);
+  EXPECT_NE(p.output().find("dropped malformed message on IN"), std::string::npos) << p.output();
 }
