@@ -20,6 +20,11 @@
 //   --check-config    validate the configuration, print it, exit
 //   --no-netcheck     skip the network self-check
 // Exit codes: 0 clean stop, 1 runtime failure, 2 bad command line or configuration.
+//
+// The factory only builds nodes from configuration; it must not touch
+// hardware. Devices are opened in Node::on_attach(), which runs only after the
+// whole configuration (unknown keys included) has been validated, so a
+// process with bad configuration exits before it moves anything.
 #pragma once
 
 #include <functional>
