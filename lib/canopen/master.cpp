@@ -46,6 +46,7 @@ void Master::send(const CanFrame& f) {
 }
 
 void Master::start(Micros now) {
+  now_ = now;
   phase_ = MasterPhase::kConfiguring;
   started_ = now;
   configured_ = 0;
@@ -70,7 +71,7 @@ void Master::start(Micros now) {
                      ") is not a CiA 402 drive (device type " + std::to_string(type) + ")";
             return;
           }
-          configure_next(i, 0, last_sync_);
+          configure_next(i, 0, now_);
         },
         now);
   }
@@ -96,7 +97,7 @@ void Master::configure_next(std::size_t i, std::size_t step, Micros now) {
           error_ = "joint " + std::to_string(i + 1) + ": configuration failed: " + r.error;
           return;
         }
-        configure_next(i, step + 1, last_sync_);
+        configure_next(i, step + 1, now_);
       },
       now);
 }
@@ -112,6 +113,7 @@ void Master::drain(Micros now) {
 }
 
 void Master::handle_frame(const CanFrame& f, Micros now) {
+  now_ = now;
   if (f.error || f.extended) return;  // bus errors surface through bus state and missing traffic
   if (sdo_.on_frame(f, now)) return;
   const int i = index_of_node(node_of(f.id));
@@ -163,6 +165,7 @@ void Master::latch(std::size_t i, bool DriveStatus::*flag, const std::string& te
 }
 
 void Master::sync(Micros now) {
+  now_ = now;
   sdo_.poll(now);
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     DriveStatus& d = drives_[i];

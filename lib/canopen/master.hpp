@@ -110,6 +110,7 @@ class Master {
   DriveGoal goal_ = DriveGoal::kDisabled;
   std::size_t configured_ = 0;
   Micros started_ = 0;
+  Micros now_ = 0;  // time of the call being handled (SDO callbacks carry none)
   Micros last_sync_ = 0;
   int64_t sync_count_ = 0;
   std::vector<std::string> events_;

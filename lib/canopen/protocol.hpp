@@ -12,6 +12,7 @@
 namespace harvest::canopen {
 
 using can::CanFrame;
+using Micros = int64_t;  // microseconds on the caller's (injected) clock
 
 // Predefined connection set (CiA 301 7.3.5).
 namespace cob {

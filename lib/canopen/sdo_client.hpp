@@ -16,8 +16,6 @@
 
 namespace harvest::canopen {
 
-using Micros = int64_t;
-
 struct SdoResult {
   bool ok = false;
   uint32_t abort_code = 0;    // set when !ok: from the server, or ours (e.g. timeout)
