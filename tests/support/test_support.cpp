@@ -15,6 +15,9 @@
 #ifndef HARVEST_SOURCE_DIR
 #define HARVEST_SOURCE_DIR "."
 #endif
+#ifndef HARVEST_TEST_BIN_DIR
+#define HARVEST_TEST_BIN_DIR "build/tests"
+#endif
 #ifndef HARVEST_BIN_DIR
 #define HARVEST_BIN_DIR "build/bin"
 #endif
@@ -113,6 +116,7 @@ std::string ChildProcess::output() const {
 }
 
 std::string bin(const std::string& name) { return std::string(HARVEST_BIN_DIR) + "/" + name; }
+std::string test_bin(const std::string& name) { return std::string(HARVEST_TEST_BIN_DIR) + "/" + name; }
 std::string source_path(const std::string& relative) { return std::string(HARVEST_SOURCE_DIR) + "/" + relative; }
 
 }  // namespace harvest::testing

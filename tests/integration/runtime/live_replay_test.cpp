@@ -127,27 +127,27 @@ class ProcessTest : public ::testing::Test {
 TEST_F(ProcessTest, BadConfigurationExitsBeforeStartingAndNamesTheKey) {
   std::string out;
   const auto bad = write("bad.yaml", "gain: abc\n");
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--config", bad, "--no-netcheck"}, &out), 2);
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--config", bad, "--no-netcheck"}, &out), 2);
   EXPECT_NE(out.find("bad.yaml: gain: expected a number"), std::string::npos) << out;
 
   const auto typo = write("typo.yaml", "gain: 1\ngian: 2\n");
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--config", typo}, &out), 2);
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--config", typo}, &out), 2);
   EXPECT_NE(out.find("unknown key: gian"), std::string::npos) << out;
 
   const auto range = write("range.yaml", "gain: 1000\n");
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--config", range}, &out), 2);
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--config", range}, &out), 2);
   EXPECT_NE(out.find("gain: expected a number in"), std::string::npos) << out;
 
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--config", (dir / "missing.yaml").string()}, &out), 2);
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--config", (dir / "missing.yaml").string()}, &out), 2);
   EXPECT_NE(out.find("missing.yaml: configuration file not found"), std::string::npos) << out;
 
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--bogus-flag"}, &out), 2);
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--bogus-flag"}, &out), 2);
 }
 
 TEST_F(ProcessTest, CheckConfigPrintsTheEffectiveConfiguration) {
   std::string out;
   const auto cfg = write("ok.yaml", "gain: 2\n");
-  EXPECT_EQ(run_to_end({ht::bin("../tests/harvest-test-scale"), "--config", cfg, "--set", "output=SCALED",
+  EXPECT_EQ(run_to_end({ht::test_bin("harvest-test-scale"), "--config", cfg, "--set", "output=SCALED",
                         "--check-config"},
                        &out),
             0);
@@ -160,7 +160,7 @@ TEST_F(ProcessTest, LiveProcessHeartbeatsProcessesAndStopsOnSigterm) {
   const std::string url = ht::unique_lcm_url();
   Recorder recorder(url);
   const auto cfg = write("ok.yaml", "gain: 3\n");
-  ht::ChildProcess p({ht::bin("../tests/harvest-test-scale"), "--config", cfg, "--lcm-url", url, "--prefix", "ARM2_",
+  ht::ChildProcess p({ht::test_bin("harvest-test-scale"), "--config", cfg, "--lcm-url", url, "--prefix", "ARM2_",
                       "--instance", "scale-a"},
                      dir / "proc.txt");
   ASSERT_TRUE(ht::eventually([&] { return !recorder.on("ARM2_PROCESS_STATUS").empty(); }, 10s)) << p.output();
