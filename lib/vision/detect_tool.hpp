@@ -1,0 +1,33 @@
+// harvest-detect: the fruit detector on image files, one JSON line per image
+// (docs/perception.md). Logic here, argument parsing in processes/detect.
+#pragma once
+
+#include <filesystem>
+#include <iosfwd>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "vision/fruit_detector.hpp"
+
+namespace harvest::vision {
+
+struct DetectToolOptions {
+  std::string config_file;              // detector node configuration (optional)
+  std::vector<std::string> overrides;   // --set KEY=VALUE
+  std::filesystem::path overlay_dir;    // empty: no overlays
+  std::vector<std::string> images;
+};
+
+// {"image": PATH, "width": W, "height": H, "fruits": [{"u", "v", "diameter_px", "depth_m", "confidence", "selected"}]}
+std::string detections_json(const std::string& image, int width, int height, const Detections& d);
+
+// The image with each fruit's outline, centre, index and depth drawn on it
+// (the selected fruit in red, the others in cyan).
+cv::Mat draw_overlay(const cv::Mat3b& image, const Detections& d);
+
+// Returns the exit code: 0 all images processed, 1 some could not be read or
+// written (each named on `err`), 2 bad configuration or options.
+int run_detect_tool(const DetectToolOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace harvest::vision

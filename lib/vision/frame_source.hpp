@@ -1,0 +1,50 @@
+// Where camera frames come from: a V4L2 device (through cv::VideoCapture), a
+// video file, or a folder of images in name order.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace harvest::vision {
+
+enum class ReadStatus {
+  kFrame,    // a frame was read
+  kBadFrame, // this frame is unusable (e.g. an unreadable file); the next may be fine
+  kEnd,      // no more frames (file or folder finished, no loop)
+  kLost,     // the device failed; close and reopen
+};
+
+struct ReadResult {
+  ReadStatus status;
+  cv::Mat frame;      // BGR8 when status == kFrame
+  std::string error;  // names the device or file
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  // Throws std::runtime_error naming the device/file when it cannot be opened.
+  virtual void open() = 0;
+  virtual void close() = 0;
+  virtual ReadResult read() = 0;
+  virtual std::string describe() const = 0;
+};
+
+struct DeviceOptions {
+  std::string device = "/dev/video0";  // path, or a number for the OpenCV index
+  int width = 640, height = 480;
+  double fps = 30;
+  std::string pixel_format;  // FOURCC such as "MJPG" or "YUYV"; empty = driver default
+};
+
+std::unique_ptr<FrameSource> make_device_source(const DeviceOptions& options);
+std::unique_ptr<FrameSource> make_video_source(const std::filesystem::path& file, bool loop);
+std::unique_ptr<FrameSource> make_folder_source(const std::filesystem::path& folder, bool loop);
+
+// Image files of a folder (by extension, case-insensitive), sorted by name.
+std::vector<std::filesystem::path> list_images(const std::filesystem::path& folder);
+
+}  // namespace harvest::vision
