@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "canopen/pdo.hpp"
 
@@ -16,7 +17,14 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   c.sdo_timeout = node.get<int>("sdo_timeout_ms", 200, {10, 5000}) * 1000;
   if (c.heartbeat_timeout <= Micros{c.heartbeat_ms} * 1000)
     node.fail("heartbeat_timeout_ms", "a value greater than heartbeat_ms");
-  for (const auto& d : node.children("drives")) {
+  // The drive list usually lives in its own file, shared with the simulated drives.
+  std::optional<config::Document> drives_doc;
+  config::Node drives_node = node;
+  if (node.has("drives_file")) {
+    drives_doc = config::Document::load_file(node.file_path("drives_file"));
+    drives_node = drives_doc->root();
+  }
+  for (const auto& d : drives_node.children("drives")) {
     DriveConfig dc;
     dc.node_id = static_cast<uint8_t>(d.required<int>("node_id", {1, 127}));
     dc.counts_per_radian = d.required<double>("counts_per_radian", {-1e9, 1e9});
@@ -26,7 +34,8 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
       if (other.node_id == dc.node_id) d.fail("node_id", "a node id not used by another drive");
     c.drives.push_back(dc);
   }
-  if (c.drives.empty()) node.fail("drives", "a list of at least one drive");
+  if (c.drives.empty()) drives_node.fail("drives", "a list of at least one drive");
+  if (drives_doc) drives_doc->check_unused();
   return c;
 }
 

@@ -34,7 +34,8 @@ struct MasterConfig {
   Micros pdo_timeout = 100'000;        // running drive sent no TPDO this long
   Micros sdo_timeout = 200'000;
 
-  // Reads the `can` mapping of a robot-link configuration. Throws config::Error.
+  // Reads the `can` mapping of a robot-link configuration; the drive list is
+  // `drives` there or in the file `drives_file`. Throws config::Error.
   static MasterConfig from_config(const config::Node& node);
 };
 

@@ -1,0 +1,81 @@
+#include "simdrive/sim_drives_node.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include "canopen/master.hpp"
+
+namespace harvest::simdrive {
+
+std::vector<SimDriveConfig> sim_drive_configs(const kinematics::ArmModel& model, const config::Node& drives_root,
+                                              double acceleration_margin, double quick_stop_factor) {
+  // The same reader as the robot link's, so both sides agree on ids and scaling.
+  const auto drives = drives_root.children("drives");
+  if (static_cast<int>(drives.size()) != model.dof())
+    drives_root.fail("drives", "one drive per joint of the arm model (" + std::to_string(model.dof()) + ")");
+  std::vector<SimDriveConfig> out;
+  for (int i = 0; i < model.dof(); ++i) {
+    const auto& d = drives[static_cast<std::size_t>(i)];
+    SimDriveConfig c;
+    c.node_id = static_cast<uint8_t>(d.required<int>("node_id", {1, 127}));
+    c.counts_per_radian = d.required<double>("counts_per_radian");
+    c.zero_offset_counts = d.get<int>("zero_offset_counts", 0);
+    const auto& joint = model.joints[static_cast<std::size_t>(i)];
+    c.max_acceleration = acceleration_margin * joint.max_acceleration;
+    c.quick_stop_deceleration = quick_stop_factor * joint.max_acceleration;
+    c.initial_position = model.home[i];
+    out.push_back(c);
+  }
+  return out;
+}
+
+SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
+  SimDrivesConfig c;
+  c.bus = root.get<std::string>("bus", c.bus);
+  const auto model = kinematics::ArmModel::load(root.file_path("arm_model", "k1207i.yaml").string());
+  auto drives_doc = config::Document::load_file(root.file_path("drives_file", "drives_k1207i.yaml"));
+  const double margin = root.get<double>("acceleration_margin", 1.5, {1.0, 100.0});
+  const double qs = root.get<double>("quick_stop_deceleration_factor", 3.0, {1.0, 100.0});
+  c.drives = sim_drive_configs(model, drives_doc.root(), margin, qs);
+  drives_doc.check_unused();
+  c.step_us = root.get<int>("step_ms", 1, {1, 100}) * 1000;
+  return c;
+}
+
+SimDrivesNode::SimDrivesNode(SimDrivesConfig config) : rt::Node("sim_drives"), config_(std::move(config)) {}
+
+void SimDrivesNode::on_attach() {
+  bus_ = can::open_bus(config_.bus);
+  set_ = std::make_unique<SimDriveSet>(*bus_, config_.drives);
+  if (bus_->fd() >= 0) ctx().watch_fd(bus_->fd(), [this] { set_->drain(now()); });
+  every(config_.step_us, [this] {
+    set_->drain(now());
+    set_->advance(now());
+  });
+  subscribe<harvest::sim_drive_fault_t>(kSimDriveFaultChannel, [this](const auto& m) { on_fault(m); });
+  set_health(rt::Health::kOk);
+  spdlog::info("{} simulated CiA 402 drives on {}", set_->size(), bus_->describe());
+}
+
+void SimDrivesNode::on_fault(const harvest::sim_drive_fault_t& msg) {
+  if (msg.joint < 0 || msg.joint > static_cast<int>(set_->size())) {
+    spdlog::warn("SIM_DRIVE_FAULT for joint {} ignored: the arm has {} joints", msg.joint, set_->size());
+    return;
+  }
+  for (std::size_t i = 0; i < set_->size(); ++i) {
+    if (msg.joint != 0 && static_cast<int>(i) + 1 != msg.joint) continue;
+    SimDrive& d = set_->drive(i);
+    switch (msg.kind) {
+      case harvest::sim_drive_fault_t::KIND_FAULT: d.inject_fault(static_cast<uint16_t>(msg.error_code)); break;
+      case harvest::sim_drive_fault_t::KIND_HEARTBEAT_OFF: d.set_heartbeat_enabled(false); break;
+      case harvest::sim_drive_fault_t::KIND_SILENT: d.set_silent(true); break;
+      case harvest::sim_drive_fault_t::KIND_RESTORE:
+        d.set_silent(false);
+        d.set_heartbeat_enabled(true);
+        break;
+      default: spdlog::warn("SIM_DRIVE_FAULT kind {} unknown", msg.kind); return;
+    }
+    spdlog::warn("injected fault kind {} into joint {}", msg.kind, i + 1);
+  }
+}
+
+}  // namespace harvest::simdrive
