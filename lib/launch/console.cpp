@@ -1,0 +1,61 @@
+#include "launch/console.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+namespace harvest::launch {
+
+namespace {
+std::string fit(std::string s, std::size_t w) {
+  if (s.size() > w) s = s.substr(0, w > 1 ? w - 1 : 0) + (w > 0 ? "~" : "");
+  s.resize(w, ' ');
+  return s;
+}
+}  // namespace
+
+std::string render_table(const std::vector<StatusRow>& rows, std::size_t width) {
+  std::size_t name_w = 4, group_w = 5;
+  for (const auto& r : rows) {
+    name_w = std::max(name_w, r.name.size());
+    group_w = std::max(group_w, r.group.size());
+  }
+  name_w = std::min<std::size_t>(name_w, 24);
+  group_w = std::min<std::size_t>(group_w, 12);
+  auto row = [&](const std::string& n, const std::string& g, const std::string& s, const std::string& pid,
+                 const std::string& rs, const std::string& ex, const std::string& hb, const std::string& msg) {
+    std::string line = fit(n, name_w) + " " + fit(g, group_w) + " " + fit(s, 13) + " " + fit(pid, 8) + " " +
+                       fit(rs, 8) + " " + fit(ex, 6) + " " + fit(hb, 9) + " ";
+    const std::size_t rest = width > line.size() ? width - line.size() : 0;
+    line += msg.size() > rest ? fit(msg, rest) : msg;
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    return line + "\n";
+  };
+  std::string out = row("NAME", "GROUP", "STATE", "PID", "RESTARTS", "EXIT", "HEARTBEAT", "MESSAGE");
+  for (const auto& r : rows)
+    out += row(r.name, r.group, r.state, r.pid > 0 ? std::to_string(r.pid) : "-", std::to_string(r.restarts),
+               r.last_exit.empty() ? "-" : r.last_exit, r.heartbeat, r.message);
+  return out;
+}
+
+void Console::erase_table() {
+  // Cursor up over the old table, then clear to the end of the screen.
+  if (live_ && table_lines_ > 0) out_ << "\033[" << table_lines_ << "F\033[J";
+}
+
+void Console::line(const std::string& source, const std::string& text) {
+  erase_table();
+  out_ << "[" << source << "] " << text << "\n";
+  if (live_ && table_lines_ > 0) out_ << table_;
+  out_.flush();
+}
+
+void Console::table(const std::string& text) {
+  if (!live_) return;
+  erase_table();
+  table_ = text;
+  table_lines_ = static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+  out_ << table_;
+  out_.flush();
+}
+
+}  // namespace harvest::launch

@@ -1,0 +1,42 @@
+// The launcher's terminal output: child output lines prefixed with the
+// process name, and a status table. On a TTY the table is redrawn in place
+// below the scrolling output; otherwise only plain lines are written (logs,
+// CI, scripts).
+#pragma once
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace harvest::launch {
+
+struct StatusRow {
+  std::string name, group, state;
+  int pid = -1;
+  int restarts = 0;
+  std::string last_exit;   // "" if it never exited
+  std::string heartbeat;   // age of the last heartbeat, "-" if none expected
+  std::string message;
+};
+
+// Fixed-width table, header first, one row per process; every row ends with '\n'.
+std::string render_table(const std::vector<StatusRow>& rows, std::size_t width = 120);
+
+class Console {
+ public:
+  Console(std::ostream& out, bool live_table) : out_(out), live_(live_table) {}
+  // One line from `source` (a process name or "launch").
+  void line(const std::string& source, const std::string& text);
+  // Replace the table (TTY only; ignored otherwise).
+  void table(const std::string& text);
+  bool live() const { return live_; }
+
+ private:
+  void erase_table();
+  std::ostream& out_;
+  bool live_;
+  std::string table_;
+  int table_lines_ = 0;
+};
+
+}  // namespace harvest::launch

@@ -1,0 +1,168 @@
+#include "launch/launch_cli.hpp"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <ctime>
+#include <iostream>
+
+#include "launch/supervisor.hpp"
+#include "runtime/heartbeat.hpp"
+#include "runtime/live_runner.hpp"
+#include "runtime/process_main.hpp"
+
+namespace harvest::launch {
+
+namespace {
+rt::LiveRunner* g_runner = nullptr;
+extern "C" void harvest_launch_on_signal(int) {
+  if (g_runner != nullptr) g_runner->request_stop(0);
+}
+
+std::string timestamp_now() {
+  // Names the recording file only; nothing the supervisor decides depends on it.
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
+  return buf;
+}
+
+void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
+  std::cout << "set '" << set.name << "' from " << set.file.string() << ", executables from " << set.bin_dir.string()
+            << "\n";
+  std::cout << "lcm url: " << (set.lcm_url.empty() ? "(LCM default)" : set.lcm_url)
+            << (set.prefix.empty() ? "" : ", prefix " + set.prefix) << "\n";
+  if (set.recording.enabled) {
+    std::cout << "recording:";
+    for (const auto& a : recorder_command_line(set, "<time>")) std::cout << " " << a;
+    std::cout << "\n";
+  }
+  std::cout << "start order:\n";
+  int n = 1;
+  for (std::size_t i : selected) {
+    const ProcessSpec& p = set.processes[i];
+    std::cout << "  " << n++ << ". " << p.name << " [group " << p.group << (p.critical ? ", critical" : "")
+              << (p.stop_first ? ", stop first" : "") << "]";
+    if (!p.after.empty()) {
+      std::cout << " after";
+      for (const auto& d : p.after) std::cout << " " << d;
+    }
+    std::cout << "\n     ";
+    for (const auto& a : command_line(set, p)) std::cout << " " << a;
+    std::cout << "\n";
+  }
+}
+}  // namespace
+
+int launch_main(int argc, char** argv) {
+  CLI::App app("Start, watch and stop a process set (docs/launcher.md)", "harvest-launch");
+  std::string set_path, group, exit_with, bin_dir, instance = "launch", log_level = "info", lcm_url;
+  std::vector<std::string> overrides;
+  bool check = false, no_table = false;
+  app.add_option("set", set_path, "process set file (config/sets/*.yaml)")->required();
+  app.add_flag("--check", check, "validate the set and print what would start, start nothing");
+  app.add_option("--group", group, "start only the processes of this host group");
+  app.add_option("--exit-with", exit_with, "stop the set when this process exits; exit with its code");
+  app.add_option("--bin-dir", bin_dir, "where harvest-* executables are (default: the set's bin_dir)");
+  app.add_option("--set", overrides, "override a value of the set file, KEY.PATH=VALUE (repeatable)");
+  app.add_option("--lcm-url", lcm_url, "LCM URL (overrides the set's lcm_url)");
+  app.add_option("--instance", instance, "instance name of the launcher's own PROCESS_STATUS");
+  app.add_flag("--no-table", no_table, "plain output lines even on a terminal");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;
+  }
+  spdlog::set_default_logger(spdlog::stderr_color_mt(instance));
+  spdlog::set_pattern("%H:%M:%S.%e %^%l%$ [%n] %v");
+  spdlog::set_level(spdlog::level::from_str(log_level));
+
+  SetSpec set;
+  std::string effective;
+  try {
+    config::Document doc = rt::load_config(set_path, overrides);
+    set = parse_set(doc.root(), set_path, bin_dir);
+    effective = doc.emit();
+  } catch (const config::Error& e) {
+    std::cerr << "harvest-launch: invalid set: " << e.what() << "\n";
+    return 2;
+  }
+  if (!lcm_url.empty()) set.lcm_url = lcm_url;
+  const std::vector<std::size_t> selected = select_group(set, group);
+  if (selected.empty()) {
+    std::cerr << "harvest-launch: no process in group '" << group << "'\n";
+    return 2;
+  }
+  if (!exit_with.empty() && std::none_of(selected.begin(), selected.end(),
+                                         [&](std::size_t i) { return set.processes[i].name == exit_with; })) {
+    std::cerr << "harvest-launch: --exit-with " << exit_with << ": no such process in the started set\n";
+    return 2;
+  }
+  const auto problems = preflight(set, selected);
+  if (check) print_plan(set, selected);
+  for (const auto& p : problems) std::cerr << "harvest-launch: " << p << "\n";
+  if (!problems.empty()) {
+    std::cerr << "harvest-launch: set '" << set.name << "' cannot start (" << problems.size() << " problem"
+              << (problems.size() > 1 ? "s" : "") << ")\n";
+    return 1;
+  }
+  if (check) {
+    std::cout << "set '" << set.name << "' is valid\n";
+    return 0;
+  }
+
+  if (set.recording.enabled) {
+    std::error_code ec;
+    std::filesystem::create_directories(set.recording.folder, ec);
+    if (ec) {
+      std::cerr << "harvest-launch: cannot create recording folder " << set.recording.folder.string() << ": "
+                << ec.message() << "\n";
+      return 1;
+    }
+  }
+  try {
+    Console console(std::cout, isatty(STDOUT_FILENO) && !no_table);
+    SupervisorOptions sopts;
+    sopts.group = group;
+    sopts.exit_with = exit_with;
+    sopts.own_instance = instance;
+    Supervisor supervisor(set, sopts, console, timestamp_now());
+    rt::LiveRunner runner(rt::LiveOptions{set.lcm_url, set.prefix, supervisor.shutdown_budget()});
+    char host[256] = {};
+    gethostname(host, sizeof host - 1);
+    std::string cmdline;
+    for (int i = 0; i < argc; ++i) cmdline += (i ? " " : "") + std::string(argv[i]);
+    rt::HeartbeatNode heartbeat(rt::ProcessIdentity{"launch", instance, host, static_cast<int>(getpid()), set_path,
+                                                    effective, cmdline, rt::software_version()},
+                                {&supervisor});
+    runner.add(heartbeat);
+    runner.add(supervisor);
+
+    g_runner = &runner;
+    struct sigaction sa {};
+    sa.sa_handler = harvest_launch_on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    signal(SIGPIPE, SIG_IGN);
+    const int rc = runner.run();
+    g_runner = nullptr;
+    console.line("launch", "all stopped, exit code " + std::to_string(rc));
+    return rc;
+  } catch (const std::exception& e) {
+    g_runner = nullptr;
+    std::cerr << "harvest-launch: fatal: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace harvest::launch

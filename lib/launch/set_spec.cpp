@@ -1,0 +1,214 @@
+#include "launch/set_spec.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <set>
+#include <sstream>
+
+namespace harvest::launch {
+
+namespace {
+
+// config::Node has no reader for lists of strings and check_unused() would
+// not see keys read through yaml(), so sets check their own keys.
+void check_keys(const config::Node& n, const std::set<std::string>& allowed) {
+  for (const auto& k : n.keys()) {
+    if (allowed.count(k)) continue;
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw config::Error(n.file() + ": " + n.key_path(k) + ": unknown key (misspelt?); expected one of {" + list + "}");
+  }
+}
+
+std::vector<std::string> strings(const config::Node& n, const std::string& key) {
+  std::vector<std::string> out;
+  if (!n.has(key)) return out;
+  const YAML::Node v = n.yaml()[key];
+  if (v.IsScalar()) return {v.Scalar()};
+  if (!v.IsSequence()) n.fail(key, "a list of strings, got " + config::detail::describe(v));
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!v[i].IsScalar()) n.fail(key, "a list of strings, element " + std::to_string(i) + " is not a string");
+    out.push_back(v[i].Scalar());
+  }
+  return out;
+}
+
+RestartPolicy parse_restart(const config::Node& n) {
+  check_keys(n, {"policy", "max_restarts", "backoff_s", "backoff_factor", "backoff_max_s", "reset_after_s"});
+  RestartPolicy r;
+  const std::string mode = n.choice("policy", "on-failure", {"never", "on-failure", "always"});
+  r.mode = mode == "never" ? RestartMode::kNever : mode == "always" ? RestartMode::kAlways : RestartMode::kOnFailure;
+  r.max_restarts = n.get<int>("max_restarts", r.max_restarts, {-1, 1000});
+  r.backoff_initial_s = n.get<double>("backoff_s", r.backoff_initial_s, {0.0, 3600.0});
+  r.backoff_factor = n.get<double>("backoff_factor", r.backoff_factor, {1.0, 10.0});
+  r.backoff_max_s = n.get<double>("backoff_max_s", r.backoff_max_s, {0.0, 3600.0});
+  r.reset_after_s = n.get<double>("reset_after_s", r.reset_after_s, {0.0, 86400.0});
+  if (r.backoff_max_s < r.backoff_initial_s) n.fail("backoff_max_s", "a value >= backoff_s");
+  return r;
+}
+
+std::filesystem::path beside(const std::filesystem::path& set_file, const std::string& p) {
+  std::filesystem::path path(p);
+  return path.is_relative() ? (set_file.parent_path() / path).lexically_normal() : path;
+}
+
+bool executable(const std::filesystem::path& p) {
+  return std::filesystem::is_regular_file(p) && access(p.c_str(), X_OK) == 0;
+}
+
+}  // namespace
+
+SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_file,
+                  const std::filesystem::path& bin_dir_override) {
+  check_keys(root, {"name", "bin_dir", "lcm_url", "prefix", "processes", "recording"});
+  SetSpec s;
+  s.file = std::filesystem::absolute(set_file).lexically_normal();
+  s.name = root.get<std::string>("name", set_file.stem().string());
+  s.bin_dir = bin_dir_override.empty() ? beside(s.file, root.get<std::string>("bin_dir", "../../build/bin"))
+                                       : bin_dir_override;
+  s.lcm_url = root.get<std::string>("lcm_url", "");
+  s.prefix = root.get<std::string>("prefix", "");
+
+  std::set<std::string> names;
+  for (const config::Node& p : root.children("processes")) {
+    check_keys(p, {"name", "command", "args", "env", "cwd", "group", "after", "restart", "critical", "stop_first",
+                   "harvest_options", "heartbeat_timeout_s", "stop_timeout_s", "ready_timeout_s"});
+    ProcessSpec ps;
+    ps.name = p.required<std::string>("name");
+    if (ps.name.empty() || ps.name.find_first_of(" \t/") != std::string::npos)
+      p.fail("name", "a non-empty name without spaces or '/', got '" + ps.name + "'");
+    if (!names.insert(ps.name).second) p.fail("name", "a unique name, '" + ps.name + "' is used twice");
+    ps.command = p.required<std::string>("command");
+    ps.args = strings(p, "args");
+    const config::Node env = p.child("env");
+    for (const auto& k : env.keys()) ps.env[k] = env.required<std::string>(k);
+    ps.cwd = beside(s.file, p.get<std::string>("cwd", "../.."));
+    ps.group = p.get<std::string>("group", "default");
+    ps.after = strings(p, "after");
+    ps.restart = parse_restart(p.child("restart"));
+    ps.critical = p.get<bool>("critical", false);
+    ps.stop_first = p.get<bool>("stop_first", false);
+    ps.harvest_options = p.get<bool>("harvest_options", true);
+    ps.heartbeat_timeout_s = p.get<double>("heartbeat_timeout_s", ps.harvest_options ? 3.0 : 0.0, {0.0, 3600.0});
+    ps.stop_timeout_s = p.get<double>("stop_timeout_s", 5.0, {0.0, 600.0});
+    ps.ready_timeout_s = p.get<double>("ready_timeout_s", 10.0, {0.0, 600.0});
+    s.processes.push_back(std::move(ps));
+  }
+  if (s.processes.empty()) root.fail("processes", "a non-empty list of processes");
+
+  const config::Node rec = root.child("recording");
+  check_keys(rec, {"enabled", "folder", "file_prefix", "channels", "invert_channels", "split_mb", "logger"});
+  s.recording.enabled = rec.get<bool>("enabled", false);
+  s.recording.folder = beside(s.file, rec.get<std::string>("folder", "../../logs/runs"));
+  s.recording.file_prefix = rec.get<std::string>("file_prefix", s.name);
+  s.recording.channels = rec.get<std::string>("channels", ".*");
+  s.recording.invert_channels = rec.get<bool>("invert_channels", false);
+  s.recording.split_mb = rec.get<double>("split_mb", 0.0, {0.0, 1e6});
+  s.recording.logger = rec.get<std::string>("logger", "lcm-logger");
+
+  start_order(s);  // throws on unknown dependencies and cycles
+  return s;
+}
+
+SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override) {
+  const config::Document doc = config::Document::load_file(set_file);
+  return parse_set(doc.root(), set_file, bin_dir_override);
+}
+
+std::vector<std::size_t> start_order(const SetSpec& set) {
+  std::map<std::string, std::size_t> index;
+  for (std::size_t i = 0; i < set.processes.size(); ++i) index[set.processes[i].name] = i;
+  for (const auto& p : set.processes)
+    for (const auto& d : p.after) {
+      if (!index.count(d))
+        throw config::Error(set.file.string() + ": processes." + p.name + ".after: unknown process '" + d + "'");
+      if (d == p.name) throw config::Error(set.file.string() + ": processes." + p.name + ".after: depends on itself");
+    }
+  // Depth-first topological sort in declaration order, so independent
+  // processes keep the order the set file gives them.
+  std::vector<int> state(set.processes.size(), 0);  // 0 new, 1 visiting, 2 done
+  std::vector<std::size_t> order;
+  std::function<void(std::size_t, std::string)> visit = [&](std::size_t i, std::string chain) {
+    chain += (chain.empty() ? "" : " -> ") + set.processes[i].name;
+    if (state[i] == 2) return;
+    if (state[i] == 1) throw config::Error(set.file.string() + ": dependency cycle: " + chain);
+    state[i] = 1;
+    for (const auto& d : set.processes[i].after) visit(index[d], chain);
+    state[i] = 2;
+    order.push_back(i);
+  };
+  for (std::size_t i = 0; i < set.processes.size(); ++i) visit(i, "");
+  return order;
+}
+
+std::vector<std::size_t> select_group(const SetSpec& set, const std::string& group) {
+  std::vector<std::size_t> out;
+  for (std::size_t i : start_order(set))
+    if (group.empty() || set.processes[i].group == group) out.push_back(i);
+  return out;
+}
+
+std::optional<std::filesystem::path> resolve_executable(const SetSpec& set, const std::string& command) {
+  if (command.find('/') != std::string::npos) {
+    const std::filesystem::path p = beside(set.file, command);
+    return executable(p) ? std::optional(p) : std::nullopt;
+  }
+  if (!set.bin_dir.empty() && executable(set.bin_dir / command)) return set.bin_dir / command;
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path ? path : "/usr/bin:/bin");
+  for (std::string d; std::getline(dirs, d, ':');)
+    if (!d.empty() && executable(std::filesystem::path(d) / command)) return std::filesystem::path(d) / command;
+  return std::nullopt;
+}
+
+std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::size_t>& selected) {
+  std::vector<std::string> problems;
+  for (std::size_t i : selected) {
+    const ProcessSpec& p = set.processes[i];
+    if (!resolve_executable(set, p.command))
+      problems.push_back(p.name + ": executable '" + p.command + "' not found (looked in " + set.bin_dir.string() +
+                         " and PATH); build it or fix 'command'");
+    if (!std::filesystem::is_directory(p.cwd))
+      problems.push_back(p.name + ": working directory " + p.cwd.string() + " does not exist");
+  }
+  if (set.recording.enabled && !resolve_executable(set, set.recording.logger))
+    problems.push_back("recording: '" + set.recording.logger + "' not found (apt-get install liblcm-bin)");
+  return problems;
+}
+
+std::vector<std::string> command_line(const SetSpec& set, const ProcessSpec& p) {
+  const auto exe = resolve_executable(set, p.command);
+  std::vector<std::string> argv{exe ? exe->string() : p.command};
+  argv.insert(argv.end(), p.args.begin(), p.args.end());
+  if (p.harvest_options) {
+    argv.insert(argv.end(), {"--instance", p.name});
+    if (!set.prefix.empty()) argv.insert(argv.end(), {"--prefix", set.prefix});
+    if (!set.lcm_url.empty()) argv.insert(argv.end(), {"--lcm-url", set.lcm_url});
+  }
+  return argv;
+}
+
+std::vector<std::string> recorder_command_line(const SetSpec& set, const std::string& timestamp) {
+  const RecordingSpec& r = set.recording;
+  const auto exe = resolve_executable(set, r.logger);
+  std::vector<std::string> argv{exe ? exe->string() : r.logger, "--quiet", "--channel=" + r.channels};
+  if (r.invert_channels) argv.push_back("--invert-channels");
+  if (!set.lcm_url.empty()) argv.push_back("--lcm-url=" + set.lcm_url);
+  argv.push_back("-i");  // append .00, .01, ... ; the long form --increment is broken in lcm-logger 1.4
+  if (r.split_mb > 0) argv.push_back("--split-mb=" + std::to_string(r.split_mb));
+  argv.push_back((r.folder / (r.file_prefix + "-" + timestamp + ".lcm")).string());
+  return argv;
+}
+
+std::optional<double> restart_delay(const RestartPolicy& policy, int restarts_done, bool failed) {
+  if (policy.mode == RestartMode::kNever) return std::nullopt;
+  if (policy.mode == RestartMode::kOnFailure && !failed) return std::nullopt;
+  if (policy.max_restarts >= 0 && restarts_done >= policy.max_restarts) return std::nullopt;
+  const double d = policy.backoff_initial_s * std::pow(policy.backoff_factor, restarts_done);
+  return std::min(d, policy.backoff_max_s);
+}
+
+}  // namespace harvest::launch

@@ -1,0 +1,94 @@
+// A process set: what harvest-launch starts, in which order, how it restarts
+// and stops them, and what it records (docs/launcher.md).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "config/config.hpp"
+
+namespace harvest::launch {
+
+enum class RestartMode { kNever, kOnFailure, kAlways };
+
+// Restart with exponential back-off: delay = initial * factor^n, capped; the
+// count resets once a run has lasted `reset_after_s`.
+struct RestartPolicy {
+  RestartMode mode = RestartMode::kOnFailure;
+  int max_restarts = 3;  // restarts in a row before giving up; -1: unlimited
+  double backoff_initial_s = 0.5;
+  double backoff_factor = 2.0;
+  double backoff_max_s = 10.0;
+  double reset_after_s = 30.0;
+};
+
+struct ProcessSpec {
+  std::string name;                        // also its --instance and heartbeat instance
+  std::string command;                     // executable: path, or name looked up in bin_dir then PATH
+  std::vector<std::string> args;
+  std::map<std::string, std::string> env;  // added to the launcher's environment
+  std::filesystem::path cwd;               // working directory
+  std::string group;                       // host group (machine)
+  std::vector<std::string> after;          // started once these are ready
+  RestartPolicy restart;
+  bool critical = false;         // giving up on it stops the whole set
+  bool stop_first = false;       // stopped before everything else (the arm)
+  bool harvest_options = true;   // append --instance NAME (and --prefix, --lcm-url from the set)
+  double heartbeat_timeout_s = 0;  // 0: no heartbeat expected
+  double stop_timeout_s = 5;       // SIGTERM -> SIGKILL
+  double ready_timeout_s = 10;     // first heartbeat before dependants start anyway
+};
+
+struct RecordingSpec {
+  bool enabled = false;
+  std::filesystem::path folder;  // relative to the set file
+  std::string file_prefix = "harvest";
+  std::string channels = ".*";   // regular expression given to lcm-logger -c
+  bool invert_channels = false;  // record everything that does NOT match
+  double split_mb = 0;           // 0: one file
+  std::string logger = "lcm-logger";
+};
+
+struct SetSpec {
+  std::string name;
+  std::filesystem::path file;     // the set file
+  std::filesystem::path bin_dir;  // where harvest-* executables are looked up
+  std::string lcm_url;            // empty: LCM's default / $LCM_DEFAULT_URL
+  std::string prefix;
+  std::vector<ProcessSpec> processes;
+  RecordingSpec recording;
+};
+
+// Reads and validates a set (throws config::Error naming file and key).
+// `bin_dir_override` replaces the set's bin_dir (e.g. from --bin-dir).
+SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_file,
+                  const std::filesystem::path& bin_dir_override = {});
+SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override = {});
+
+// Start order respecting `after` (declaration order otherwise). Throws
+// config::Error on unknown names or cycles.
+std::vector<std::size_t> start_order(const SetSpec& set);
+
+// Processes to run for a host group (empty group: all).
+std::vector<std::size_t> select_group(const SetSpec& set, const std::string& group);
+
+// Resolved executable path, or nullopt if it cannot be found / run.
+std::optional<std::filesystem::path> resolve_executable(const SetSpec& set, const std::string& command);
+
+// Everything that would stop the set from starting, one line each
+// (missing executables, missing working directories, unwritable record folder).
+std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::size_t>& selected);
+
+// Full argument vector (argv[0] = resolved or raw command) for a process.
+std::vector<std::string> command_line(const SetSpec& set, const ProcessSpec& p);
+// lcm-logger command line for the set's recording.
+std::vector<std::string> recorder_command_line(const SetSpec& set, const std::string& timestamp);
+
+// Seconds to wait before restart number `restarts_done + 1`, or nullopt if
+// the policy says not to restart after this exit.
+std::optional<double> restart_delay(const RestartPolicy& policy, int restarts_done, bool failed);
+
+}  // namespace harvest::launch

@@ -1,0 +1,222 @@
+// harvest-launch against stand-in processes over real LCM: restart policy,
+// clean stop with nothing left behind, invalid sets, lost heartbeats,
+// --exit-with and recording.
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <signal.h>
+
+#include <harvest/config_snapshot_t.hpp>
+#include <harvest/process_status_t.hpp>
+
+#include <atomic>
+#include <fstream>
+#include <mutex>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include "runtime/log_io.hpp"
+#include "test_support.hpp"
+
+namespace harvest {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ChildProcess;
+using testing::eventually;
+
+const std::string kFixtures = testing::source_path("tests/integration/tools/fixtures");
+
+bool alive(pid_t pid) {  // running and not a zombie
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string pid_s, comm, state;
+  if (!(stat >> pid_s >> comm >> state)) return false;
+  return state != "Z";
+}
+
+std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+int count_lines(const std::string& text, const std::string& needle) {
+  int n = 0;
+  for (std::size_t pos = text.find(needle); pos != std::string::npos; pos = text.find(needle, pos + 1)) ++n;
+  return n;
+}
+
+struct Launch {
+  testing::TempDir dir;
+  std::string url = testing::unique_lcm_url();
+
+  std::filesystem::path write_set(const std::string& yaml) {
+    const auto path = dir / "set.yaml";
+    std::ofstream(path) << yaml;
+    return path;
+  }
+  std::unique_ptr<ChildProcess> start(const std::filesystem::path& set, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{testing::bin("harvest-launch"), set.string(), "--lcm-url", url};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return std::make_unique<ChildProcess>(argv, dir / "launch.out",
+                                          std::vector<std::string>{"PID_DIR=" + dir.path().string(),
+                                                                   "COUNT_FILE=" + (dir / "count").string()});
+  }
+};
+
+TEST(Launch, RestartsACrashingProcessPerPolicyThenStopsTheSetWhenCritical) {
+  Launch l;
+  const auto set = l.write_set("processes:\n"
+                               "  - name: crash\n    command: " + kFixtures + "/crash.sh\n"
+                               "    harvest_options: false\n    critical: true\n"
+                               "    restart: {policy: on-failure, max_restarts: 2, backoff_s: 0.05}\n"
+                               "  - name: other\n    command: " + kFixtures + "/sleeper.sh\n    args: [other]\n"
+                               "    harvest_options: false\n");
+  auto launch = l.start(set);
+  const int rc = launch->wait(20s);
+  const std::string out = launch->output();
+  EXPECT_EQ(rc, 1) << out;  // a critical process that gave up fails the set
+  EXPECT_EQ(count_lines(read_file(l.dir / "count"), "start"), 3) << out;  // first run + 2 restarts
+  EXPECT_EQ(count_lines(out, "[crash] crashing"), 3) << out;               // output is prefixed and collected
+  EXPECT_NE(out.find("restarting crash in 0.1 s (restart 2 of 2)"), std::string::npos) << out;  // back-off doubled
+  EXPECT_NE(out.find("critical process crash failed"), std::string::npos) << out;
+  EXPECT_NE(out.find("other stopped"), std::string::npos) << out;
+}
+
+TEST(Launch, StopsEverythingOnSigtermArmFirstWithNothingLeftBehind) {
+  Launch l;
+  const std::string sleeper = kFixtures + "/sleeper.sh";
+  const auto set = l.write_set("processes:\n"
+                               "  - {name: first, command: " + sleeper + ", args: [first], harvest_options: false}\n"
+                               "  - {name: stubborn, command: " + sleeper + ", args: [stubborn, stubborn],"
+                               " harvest_options: false, stop_timeout_s: 0.5}\n"
+                               "  - {name: arm, command: " + sleeper + ", args: [arm], harvest_options: false,"
+                               " stop_first: true}\n"
+                               "  - {name: last, command: " + sleeper + ", args: [last], harvest_options: false,"
+                               " after: [first]}\n");
+  auto launch = l.start(set);
+  const std::vector<std::string> names{"first", "stubborn", "arm", "last"};
+  ASSERT_TRUE(eventually([&] {
+    return std::all_of(names.begin(), names.end(), [&](const std::string& n) { return exists(l.dir / n); });
+  }, 10s)) << launch->output();
+  std::vector<pid_t> pids;
+  for (const auto& n : names) {
+    std::istringstream in(read_file(l.dir / n));
+    pid_t a = 0, b = 0;
+    in >> a >> b;
+    pids.insert(pids.end(), {a, b});
+  }
+  for (pid_t p : pids) EXPECT_TRUE(alive(p)) << p;
+
+  // Budget: 0.5 s for the stubborn one, the others stop at once.
+  EXPECT_EQ(launch->stop(10s), 0) << launch->output();
+  const std::string out = launch->output();
+  for (pid_t p : pids) EXPECT_FALSE(alive(p)) << "left behind: " << p << "\n" << out;
+  // The arm first, then the rest in reverse start order.
+  const auto arm = out.find("arm stopped"), last = out.find("last stopped"), stub = out.find("stubborn stopped"),
+             first = out.find("first stopped");
+  ASSERT_NE(first, std::string::npos) << out;
+  EXPECT_LT(arm, last) << out;
+  EXPECT_LT(last, stub) << out;
+  EXPECT_LT(stub, first) << out;
+  EXPECT_NE(out.find("stubborn did not stop within 0.5 s: SIGKILL"), std::string::npos) << out;
+}
+
+TEST(Launch, RefusesAnInvalidSetWithAClearMessage) {
+  Launch l;
+  const auto bad = l.write_set("processes:\n  - {name: a, command: x, after: [b]}\n");
+  ChildProcess check({testing::bin("harvest-launch"), bad.string(), "--check"}, l.dir / "check.out");
+  EXPECT_EQ(check.wait(10s), 2);
+  EXPECT_NE(check.output().find("invalid set: " + bad.string() + ": processes.a.after: unknown process 'b'"),
+            std::string::npos)
+      << check.output();
+
+  const auto missing = l.write_set("processes:\n  - {name: cam, command: harvest-no-such-process}\n");
+  ChildProcess start({testing::bin("harvest-launch"), missing.string()}, l.dir / "start.out");
+  EXPECT_EQ(start.wait(10s), 1);
+  EXPECT_NE(start.output().find("cam: executable 'harvest-no-such-process' not found"), std::string::npos)
+      << start.output();
+  EXPECT_NE(start.output().find("cannot start"), std::string::npos);
+}
+
+TEST(Launch, ReportsAProcessWhoseHeartbeatStops) {
+  Launch l;
+  const auto set = l.write_set("processes:\n  - {name: beater, command: " STANDIN_EXE
+                               ", args: [--no-netcheck], heartbeat_timeout_s: 1.5}\n");
+  // Watch the launcher's own status on LCM.
+  lcm::LCM lcm(l.url);
+  std::mutex mu;
+  std::string launcher_message;
+  int8_t launcher_state = -1;
+  struct Sink {
+    std::mutex* mu;
+    std::string* message;
+    int8_t* state;
+    void on(const lcm::ReceiveBuffer*, const std::string&, const harvest::process_status_t* s) {
+      if (s->instance != "launch") return;
+      std::lock_guard<std::mutex> g(*mu);
+      *message = s->message;
+      *state = s->state;
+    }
+  } sink{&mu, &launcher_message, &launcher_state};
+  lcm.subscribe("PROCESS_STATUS", &Sink::on, &sink);
+  std::atomic<bool> done{false};
+  std::thread pump([&] {
+    while (!done) lcm.handleTimeout(50);
+  });
+
+  auto launch = l.start(set);
+  std::smatch m;
+  std::string out;
+  ASSERT_TRUE(eventually([&] {
+    out = launch->output();
+    return std::regex_search(out, m, std::regex("started beater \\(pid (\\d+)\\)"));
+  }, 10s)) << out;
+  const pid_t beater = std::stoi(m[1]);
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard<std::mutex> g(mu);
+    return launcher_state == harvest::process_status_t::STATE_OK;
+  }, 10s)) << launch->output();
+
+  kill(beater, SIGSTOP);  // alive but silent: a hung process
+  EXPECT_TRUE(eventually([&] { return launch->output().find("beater: heartbeat lost") != std::string::npos; }, 10s))
+      << launch->output();
+  EXPECT_TRUE(eventually([&] {
+    std::lock_guard<std::mutex> g(mu);
+    return launcher_state == harvest::process_status_t::STATE_DEGRADED &&
+           launcher_message.find("beater heartbeat lost") != std::string::npos;
+  }, 10s));
+  kill(beater, SIGCONT);
+  EXPECT_TRUE(eventually([&] { return launch->output().find("beater: heartbeat back") != std::string::npos; }, 10s))
+      << launch->output();
+  EXPECT_EQ(launch->stop(10s), 0);
+  done = true;
+  pump.join();
+}
+
+TEST(Launch, ExitsWithANamedProcessAndRecordsTheRun) {
+  Launch l;
+  const auto set = l.write_set(std::string("processes:\n  - {name: job, command: ") + STANDIN_EXE +
+                               ", args: [--no-netcheck, --set, exit_after_s=1.5, --set, exit_code=5]}\n"
+                               "recording: {enabled: true, folder: rec, file_prefix: run}\n");
+  auto launch = l.start(set, {"--exit-with", "job"});
+  EXPECT_EQ(launch->wait(20s), 5) << launch->output();
+  std::vector<std::filesystem::path> logs;
+  for (const auto& e : std::filesystem::directory_iterator(l.dir / "rec")) logs.push_back(e.path());
+  ASSERT_EQ(logs.size(), 1u) << launch->output();
+  EXPECT_EQ(logs[0].filename().string().rfind("run-", 0), 0u);
+  bool config_seen = false, status_seen = false;
+  for (const auto& r : rt::read_log(logs[0].string())) {
+    if (r.channel == "CONFIG") {
+      const auto c = rt::decode<harvest::config_snapshot_t>(r.data);
+      config_seen = config_seen || (c && c->instance == "job");
+    }
+    status_seen = status_seen || r.channel == "PROCESS_STATUS";
+  }
+  EXPECT_TRUE(config_seen);  // the recorder was up before the process started
+  EXPECT_TRUE(status_seen);
+}
+
+}  // namespace
+}  // namespace harvest
