@@ -1,0 +1,55 @@
+#include "servo/approach.hpp"
+
+#include <stdexcept>
+
+#include "servo/geometry.hpp"
+
+namespace harvest::servo {
+
+void ReconstructionApproach::reset() {
+  last_utime_.reset();
+  last_error_.setZero();
+  error_rate_.setZero();
+}
+
+ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
+  const Eigen::Matrix3d rc = in.camera.rotation();
+  // Depth of the fruit along the optical axis from the best 3D estimate (eq. 6-15).
+  const double depth = std::max(0.0, (rc.transpose() * (in.fruit_base - in.camera.translation())).z());
+  Eigen::Vector3d e(0.0, 0.0, depth);
+  if (in.pixel) {
+    // Eq. 6-25, 6-26 in normalised coordinates, scaled by the depth.
+    const Eigen::Vector2d m = undistort_pixel(camera_, in.pixel->u, in.pixel->v);
+    e.x() = m.x() * depth;
+    e.y() = m.y() * depth;
+    // Derivative only from new measurements, low-pass filtered (images are noisy).
+    if (last_utime_ && in.pixel->utime > *last_utime_) {
+      const double dt = rt::to_seconds(in.pixel->utime - *last_utime_);
+      const Eigen::Vector3d rate = (e - last_error_) / dt;
+      error_rate_ = gains_.derivative_filter * rate + (1.0 - gains_.derivative_filter) * error_rate_;
+    }
+    if (!last_utime_ || in.pixel->utime > *last_utime_) {
+      last_utime_ = in.pixel->utime;
+      last_error_ = e;
+    }
+  }
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  if (in.pixel) {
+    v.x() = gains_.kp_lateral * e.x() + gains_.kd_lateral * error_rate_.x();
+    v.y() = gains_.kp_lateral * e.y() + gains_.kd_lateral * error_rate_.y();
+  }
+  // Eq. 6-27, 6-28 along the axis, or the constant IR-guided speed.
+  v.z() = in.forward_speed ? *in.forward_speed : gains_.kp_depth * e.z() + gains_.kd_depth * error_rate_.z();
+  ApproachOutput out;
+  out.twist.linear = rc * v;
+  out.error_camera = e;
+  return out;
+}
+
+std::unique_ptr<ApproachStrategy> make_approach(const ServoConfig& config) {
+  if (config.approach_mode == "reconstruction")
+    return std::make_unique<ReconstructionApproach>(config.gains, config.hand_camera);
+  throw std::invalid_argument("unknown approach_mode '" + config.approach_mode + "'");
+}
+
+}  // namespace harvest::servo

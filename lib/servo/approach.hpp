@@ -1,0 +1,75 @@
+// The visual approach: a pluggable strategy that turns the latest view of the
+// target fruit into a tool twist. The harvest state machine owns everything
+// else (orientation, IR phase switching, limits, timeouts), so an alternative
+// approach (e.g. the teach-by-zooming controller of chapter 5) only has to
+// implement ApproachStrategy and be named in approach_mode.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "runtime/clock.hpp"
+#include "servo/motion_limits.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+// One centroid of the target fruit in the camera-in-hand image.
+struct PixelMeasurement {
+  double u = 0.0, v = 0.0;  // [px], distorted, as detected
+  rt::Micros utime = 0;     // when the image was taken
+};
+
+struct ApproachInput {
+  rt::Micros now = 0;
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // tool centre point in the base frame
+  Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();  // camera-in-hand optical frame in the base frame
+  Eigen::Vector3d fruit_base = Eigen::Vector3d::Zero();      // best 3D estimate of the fruit centre
+  std::optional<PixelMeasurement> pixel;                     // newest associated centroid, if fresh
+  // Set under IR guidance: hold this forward speed along the camera axis
+  // instead of regulating the depth error (thesis HarvestStep5).
+  std::optional<double> forward_speed;
+};
+
+struct ApproachOutput {
+  Twist twist;                   // desired tool twist in the base frame, before limits
+  Eigen::Vector3d error_camera;  // [m] centring x, y and depth error in the camera frame
+};
+
+class ApproachStrategy {
+ public:
+  virtual ~ApproachStrategy() = default;
+  virtual std::string name() const = 0;
+  // Called when a new approach to a fruit starts.
+  virtual void reset() = 0;
+  virtual ApproachOutput update(const ApproachInput& in) = 0;
+};
+
+// 3D-reconstruction visual servoing, eq. 6-25..6-28. The pixel errors
+// (u - u0, v - v0) are turned into metric lateral errors with the undistorted
+// normalised coordinates times the estimated depth, so one gain set works at
+// every distance; the depth error is the estimated fruit depth along the
+// optical axis. v_camera = kp e + kd de/dt, rotated into the base frame. (The
+// thesis writes -kv de/dt with its error sign; here kd > 0 always damps.)
+class ReconstructionApproach final : public ApproachStrategy {
+ public:
+  ReconstructionApproach(Gains gains, CameraIntrinsics camera) : gains_(gains), camera_(camera) {}
+  std::string name() const override { return "reconstruction"; }
+  void reset() override;
+  ApproachOutput update(const ApproachInput& in) override;
+
+ private:
+  Gains gains_;
+  CameraIntrinsics camera_;
+  std::optional<rt::Micros> last_utime_;
+  Eigen::Vector3d last_error_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d error_rate_ = Eigen::Vector3d::Zero();
+};
+
+// Builds the strategy named by config.approach_mode; throws std::invalid_argument for an unknown name.
+std::unique_ptr<ApproachStrategy> make_approach(const ServoConfig& config);
+
+}  // namespace harvest::servo

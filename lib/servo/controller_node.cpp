@@ -1,0 +1,59 @@
+#include "servo/controller_node.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include "runtime/channels.hpp"
+
+namespace harvest::servo {
+
+ServoControllerNode::ServoControllerNode(ServoConfig config, std::string name)
+    : rt::Node(std::move(name)), cfg_(config), machine_(config, make_approach(config)) {}
+
+void ServoControllerNode::on_attach() {
+  namespace ch = channels;
+  advertise(ch::kRobotCommand);
+  advertise(ch::kGripperCommand);
+  advertise(ch::kHarvestStatus);
+  subscribe<targets_t>(ch::kTargets, [this](const targets_t& m) { emit(machine_.on_targets(m, now())); });
+  subscribe<fruit_detections_t>(ch::kFruitHand,
+                                [this](const fruit_detections_t& m) { emit(machine_.on_hand_fruit(m, now())); });
+  subscribe<robot_state_t>(ch::kRobotState, [this](const robot_state_t& m) { emit(machine_.on_robot_state(m, now())); });
+  subscribe<ir_range_t>(ch::kIrRange, [this](const ir_range_t& m) { emit(machine_.on_ir(m, now())); });
+  subscribe<gripper_state_t>(ch::kGripperState,
+                             [this](const gripper_state_t& m) { emit(machine_.on_gripper(m, now())); });
+  subscribe<operator_command_t>(ch::kOperatorCommand,
+                                [this](const operator_command_t& m) { emit(machine_.on_operator(m, now())); });
+  subscribe<emergency_stop_t>(ch::kEmergencyStop,
+                              [this](const emergency_stop_t& m) { emit(machine_.on_estop(m, now())); });
+  every(rt::from_seconds(cfg_.tick_period_s), [this] { emit(machine_.tick(now())); });
+  every(rt::from_seconds(cfg_.status_period_s), [this] { publish_status(); });
+  spdlog::info("[{}] approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", name(), cfg_.approach_mode,
+               cfg_.max_linear_speed, cfg_.ir_switch_distance * 1000.0);
+  publish_status();
+}
+
+void ServoControllerNode::emit(MachineOutput out) {
+  // The robot command first: on an emergency stop nothing may delay it.
+  if (out.robot) {
+    publish(channels::kRobotCommand, *out.robot);
+    count(out.robot->type == robot_command_t::TYPE_STOP ? "stop_commands" : "motion_commands");
+  }
+  if (out.gripper) publish(channels::kGripperCommand, *out.gripper);
+  if (!out.log.empty()) spdlog::warn("[{}] {}", name(), out.log);
+  if (out.status_changed) publish_status();
+  if (machine_.state() == State::kFault || machine_.estop())
+    set_health(rt::Health::kDegraded, machine_.summary());
+  else
+    set_health(rt::Health::kOk);
+}
+
+void ServoControllerNode::publish_status() {
+  harvest_status_t s = machine_.status();
+  if (s.summary != last_summary_) {
+    spdlog::info("[{}] {}", name(), s.summary);
+    last_summary_ = s.summary;
+  }
+  publish(channels::kHarvestStatus, s);
+}
+
+}  // namespace harvest::servo

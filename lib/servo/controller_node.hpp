@@ -1,0 +1,32 @@
+// The servo controller node: wires HarvestMachine to the bus. Inputs are
+// handed to the machine one at a time; a timer at tick_period_s runs the
+// control step; HARVEST_STATUS goes out on every change and every
+// status_period_s, with a one-line summary logged on each change.
+#pragma once
+
+#include <string>
+
+#include "runtime/node.hpp"
+#include "servo/harvest_machine.hpp"
+
+namespace harvest::servo {
+
+class ServoControllerNode final : public rt::Node {
+ public:
+  explicit ServoControllerNode(ServoConfig config, std::string name = "servo-controller");
+
+  const HarvestMachine& machine() const { return machine_; }
+
+ protected:
+  void on_attach() override;
+
+ private:
+  void emit(MachineOutput out);
+  void publish_status();
+
+  ServoConfig cfg_;
+  HarvestMachine machine_;
+  std::string last_summary_;
+};
+
+}  // namespace harvest::servo

@@ -1,0 +1,713 @@
+#include "servo/harvest_machine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "servo/geometry.hpp"
+
+namespace harvest::servo {
+
+const char* state_name(State s) {
+  switch (s) {
+    case State::kIdle: return "IDLE";
+    case State::kSelect: return "SELECT";
+    case State::kOrient: return "ORIENT";
+    case State::kAcquire: return "ACQUIRE";
+    case State::kApproach: return "APPROACH";
+    case State::kReacquire: return "REACQUIRE";
+    case State::kIrApproach: return "IR_APPROACH";
+    case State::kBackoff: return "BACKOFF";
+    case State::kGrasp: return "GRASP";
+    case State::kDetach: return "DETACH";
+    case State::kDrop: return "DROP";
+    case State::kRelease: return "RELEASE";
+    case State::kRetreat: return "RETREAT";
+    case State::kReturn: return "RETURN";
+    case State::kHoming: return "HOMING";
+    case State::kDone: return "DONE";
+    case State::kFault: return "FAULT";
+    case State::kEstop: return "ESTOP";
+  }
+  return "?";
+}
+
+namespace {
+
+const char* outcome_name(int8_t o) {
+  switch (o) {
+    case fruit_outcome_t::PICKED: return "picked";
+    case fruit_outcome_t::LOST: return "lost";
+    case fruit_outcome_t::UNREACHABLE: return "unreachable";
+    case fruit_outcome_t::FAILED_GRASP: return "failed grasp";
+    case fruit_outcome_t::ABORTED: return "aborted";
+  }
+  return "?";
+}
+
+LimitsConfig limits_of(const ServoConfig& c) {
+  return {c.max_linear_speed, c.max_angular_speed, c.max_linear_accel, c.max_angular_accel, c.validity_s};
+}
+
+Eigen::Vector3d vec(const double* p) { return {p[0], p[1], p[2]}; }
+
+}  // namespace
+
+HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
+    : cfg_(std::move(config)), approach_(std::move(approach)), limiter_(limits_of(cfg_), cfg_.workspace) {}
+
+// ---------------------------------------------------------------- queries
+
+bool HarvestMachine::running() const {
+  switch (state_) {
+    case State::kIdle:
+    case State::kDone:
+    case State::kFault:
+    case State::kEstop: return false;
+    default: return true;
+  }
+}
+
+bool HarvestMachine::robot_fresh(rt::Micros now) const {
+  return robot_ && now - robot_rx_ <= rt::from_seconds(cfg_.timeouts.robot_state);
+}
+
+Eigen::Isometry3d HarvestMachine::tool() const {
+  return robot_ ? to_isometry(robot_->tool_pose) : Eigen::Isometry3d::Identity();
+}
+Eigen::Isometry3d HarvestMachine::camera() const {
+  return robot_ ? to_isometry(robot_->camera_pose) : Eigen::Isometry3d::Identity();
+}
+
+std::optional<PixelMeasurement> HarvestMachine::fresh_pixel(rt::Micros now) const {
+  if (pixel_ && now - pixel_rx_ <= rt::from_seconds(cfg_.timeouts.lost)) return pixel_;
+  return std::nullopt;
+}
+
+std::optional<std::string> HarvestMachine::gripper_fault() const {
+  if (!gripper_) return std::nullopt;
+  if (gripper_->state == gripper_state_t::STATE_FAULT)
+    return "gripper fault " + std::to_string(gripper_->fault_code) + ": " + gripper_->fault_text;
+  if (gripper_->state == gripper_state_t::STATE_DISCONNECTED || !gripper_->connected) return "gripper disconnected";
+  return std::nullopt;
+}
+
+harvest_status_t HarvestMachine::status() const {
+  harvest_status_t s{};
+  s.header.frame_id = "base";
+  s.header.source_seq = robot_ ? robot_->header.seq : -1;
+  s.header.utime = robot_ ? robot_->header.utime : 0;
+  s.state = state_name(state_);
+  s.paused = paused_;
+  s.estop = estop_;
+  s.current_fruit_id = current_fruit();
+  s.picked = picked_;
+  s.lost = lost_;
+  s.unreachable = unreachable_;
+  s.failed_grasp = failed_grasp_;
+  s.remaining = 0;
+  if (fixed_)
+    for (const auto& t : fixed_->targets)
+      if (!finished_.count(t.fruit_id) && t.fruit_id != current_fruit()) ++s.remaining;
+  s.summary = summary();
+  // The newest outcomes only, so the message stays small on a long run.
+  constexpr std::size_t kMaxOutcomes = 50;
+  const std::size_t first = outcomes_.size() > kMaxOutcomes ? outcomes_.size() - kMaxOutcomes : 0;
+  s.outcomes.assign(outcomes_.begin() + static_cast<std::ptrdiff_t>(first), outcomes_.end());
+  s.num_outcomes = static_cast<int32_t>(s.outcomes.size());
+  return s;
+}
+
+std::string HarvestMachine::summary() const {
+  std::ostringstream o;
+  o << state_name(state_);
+  if (paused_) o << " (paused)";
+  if (estop_) o << " [E-STOP latched]";
+  if (current_) o << " fruit " << current_->id;
+  o << " | picked " << picked_ << ", lost " << lost_ << ", unreachable " << unreachable_ << ", failed grasp "
+    << failed_grasp_ << ", aborted " << aborted_;
+  if (!note_.empty()) o << " | " << note_;
+  return o.str();
+}
+
+// ---------------------------------------------------------------- commands
+
+robot_command_t HarvestMachine::command(int8_t type) const {
+  robot_command_t c{};
+  // A command is derived from the newest robot state it was computed from.
+  c.header.utime = robot_ ? robot_->header.utime : 0;
+  c.header.source_seq = robot_ ? robot_->header.seq : -1;
+  c.header.frame_id = "base";
+  c.type = type;
+  c.validity_us = rt::from_seconds(cfg_.validity_s);
+  c.pose_goal.orientation[0] = 1.0;
+  c.num_joints = 0;
+  c.max_linear_speed = cfg_.max_linear_speed;
+  c.max_angular_speed = cfg_.max_angular_speed;
+  c.goal_id = goal_id_;
+  return c;
+}
+
+robot_command_t HarvestMachine::twist_command(const Twist& desired) {
+  const Twist t = limiter_.apply(desired, tool().translation(), cfg_.tick_period_s);
+  robot_command_t c = command(robot_command_t::TYPE_TWIST);
+  c.twist = to_twist(t.linear, t.angular);
+  return c;
+}
+
+robot_command_t HarvestMachine::goal_command() const {
+  robot_command_t c = command(robot_command_t::TYPE_POSE_GOAL);
+  c.pose_goal = to_pose(goal_);
+  return c;
+}
+
+gripper_command_t HarvestMachine::gripper_command(int8_t action) const {
+  gripper_command_t g{};
+  g.header.utime = robot_ ? robot_->header.utime : 0;
+  g.header.source_seq = -1;
+  g.header.frame_id = "gripper";
+  g.action = action;
+  g.position = action == gripper_command_t::ACTION_OPEN ? 1.0f : 0.0f;
+  g.force_n = 0.0f;
+  return g;
+}
+
+// ---------------------------------------------------------------- transitions
+
+void HarvestMachine::enter(State s, rt::Micros now, MachineOutput& out) {
+  state_ = s;
+  entered_at_ = now;
+  out.status_changed = true;
+  limiter_.reset();
+  const Timeouts& t = cfg_.timeouts;
+  double timeout = 0.0;
+  switch (s) {
+    case State::kSelect: timeout = t.select; break;
+    case State::kOrient:
+    case State::kBackoff:
+    case State::kDetach:
+    case State::kDrop:
+    case State::kRetreat:
+    case State::kReturn:
+    case State::kHoming: timeout = t.motion; break;
+    case State::kAcquire: timeout = t.acquire; break;
+    case State::kApproach: timeout = t.approach; break;
+    case State::kReacquire: timeout = t.reacquire; break;
+    case State::kIrApproach: timeout = t.ir_approach; break;
+    case State::kGrasp: timeout = t.grasp; break;
+    case State::kRelease: timeout = t.release; break;
+    case State::kIdle:
+    case State::kDone:
+      stop_pending_ = true;
+      break;
+    case State::kFault:
+    case State::kEstop: break;
+  }
+  deadline_ = timeout > 0 ? now + rt::from_seconds(timeout) : 0;
+}
+
+Eigen::Isometry3d HarvestMachine::inside_workspace(const Eigen::Isometry3d& goal) const {
+  // A goal outside the workspace is pulled back along the straight line from
+  // the current position to the furthest point still inside.
+  if (cfg_.workspace.contains(goal.translation())) return goal;
+  const Eigen::Vector3d from = tool().translation();
+  const Eigen::Vector3d to = goal.translation();
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 30; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (cfg_.workspace.contains(from + mid * (to - from)) ? lo : hi) = mid;
+  }
+  Eigen::Isometry3d g = goal;
+  g.translation() = from + lo * (to - from);
+  return g;
+}
+
+void HarvestMachine::start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out) {
+  goal_ = inside_workspace(goal);
+  ++goal_id_;
+  enter(s, now, out);
+  out.robot = goal_command();
+}
+
+bool HarvestMachine::goal_reached() const {
+  const Eigen::Isometry3d t = tool();
+  return (t.translation() - goal_.translation()).norm() <= cfg_.position_tolerance &&
+         rotation_distance(t.rotation(), goal_.rotation()) <= cfg_.orient_tolerance;
+}
+
+void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d& target, const std::string& detail,
+                            rt::Micros since, rt::Micros now, MachineOutput& out) {
+  fruit_outcome_t o{};
+  o.fruit_id = fruit_id;
+  o.outcome = outcome;
+  o.cycle_time_s = rt::to_seconds(now - since);
+  const Eigen::Vector3d p = tool().translation();
+  for (int i = 0; i < 3; ++i) {
+    o.target_base[i] = target[i];
+    o.final_tool_position[i] = p[i];
+  }
+  o.detail = detail;
+  outcomes_.push_back(o);
+  switch (outcome) {
+    case fruit_outcome_t::PICKED: ++picked_; break;
+    case fruit_outcome_t::LOST: ++lost_; break;
+    case fruit_outcome_t::UNREACHABLE: ++unreachable_; break;
+    case fruit_outcome_t::FAILED_GRASP: ++failed_grasp_; break;
+    default: ++aborted_; break;
+  }
+  // A fruit is given up for good once picked, unreachable, or out of attempts.
+  if (outcome == fruit_outcome_t::PICKED || outcome == fruit_outcome_t::UNREACHABLE ||
+      attempts_[fruit_id] >= cfg_.max_attempts_per_fruit)
+    finished_.insert(fruit_id);
+  note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
+  out.status_changed = true;
+}
+
+void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now,
+                                MachineOutput& out) {
+  if (current_) record(outcome, current_->id, current_->estimate, detail, current_->selected_at, now, out);
+  current_.reset();
+  pixel_.reset();
+  hand_target_px_.reset();
+  if (retreat) {
+    Eigen::Isometry3d g = tool();
+    g.translation() -= cfg_.retreat_distance * g.rotation().col(2);
+    start_goal(g, State::kRetreat, now, out);
+  } else {
+    start_goal(cfg_.home_pose, State::kReturn, now, out);
+  }
+}
+
+void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOutput& out) {
+  if (current_)
+    record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, detail, current_->selected_at, now, out);
+  current_.reset();
+  paused_ = false;
+  enter(State::kFault, now, out);
+  note_ = "FAULT: " + detail;
+  out.robot = stop_command();
+  out.log = note_;
+}
+
+void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
+  const targets_t& view = *fixed_;
+  const target_t* best = nullptr;
+  for (const auto& t : view.targets) {
+    if (finished_.count(t.fruit_id) || attempts_[t.fruit_id] >= cfg_.max_attempts_per_fruit) continue;
+    const Eigen::Vector3d p = vec(t.position_base);
+    if (!cfg_.workspace.contains(p)) {
+      attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
+      record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "outside the reachable workspace", now, now, out);
+      continue;
+    }
+    if (best == nullptr || t.cost < best->cost || (t.cost == best->cost && t.fruit_id < best->fruit_id)) best = &t;
+  }
+  if (best == nullptr) {
+    note_ = "no reachable fruit left";
+    enter(State::kDone, now, out);
+    return;
+  }
+  current_ = Fruit{best->fruit_id, vec(best->position_base), now};
+  ++attempts_[best->fruit_id];
+  approach_->reset();
+  pixel_.reset();
+  hand_target_px_.reset();
+  // Point the gripper axis at the fruit without moving the tool point (eq. 6-19..6-22).
+  Eigen::Isometry3d goal = tool();
+  goal.linear() = aim_rotation(tool(), current_->estimate);
+  start_goal(goal, State::kOrient, now, out);
+}
+
+void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
+  switch (state_) {
+    case State::kSelect:
+      note_ = "no view from the fixed camera";
+      enter(State::kDone, now, out);
+      break;
+    case State::kAcquire: fail_fruit(fruit_outcome_t::LOST, "not seen by the camera-in-hand", false, now, out); break;
+    case State::kReacquire: fail_fruit(fruit_outcome_t::LOST, "lost from view, not re-acquired", true, now, out); break;
+    case State::kApproach: fail_fruit(fruit_outcome_t::LOST, "approach timed out", true, now, out); break;
+    case State::kIrApproach:
+      // Same as running out of travel: back off and retry, or give up.
+      if (ir_attempt_ < cfg_.ir_attempts) {
+        Eigen::Isometry3d g = tool();
+        g.translation() = ir_start_;
+        start_goal(g, State::kBackoff, now, out);
+      } else {
+        fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered", true, now, out);
+      }
+      break;
+    case State::kGrasp: fault("gripper did not report holding or closed in time", now, out); break;
+    case State::kRelease: fault("gripper did not report open in time", now, out); break;
+    default: fault(std::string("motion did not complete in ") + state_name(state_), now, out); break;
+  }
+}
+
+// ---------------------------------------------------------------- inputs
+
+MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
+  MachineOutput out;
+  if (msg.source_camera == "fixed") {
+    const bool first = !fixed_;
+    fixed_ = msg;
+    fixed_rx_ = now;
+    out.status_changed = first;
+    return out;
+  }
+  if (!current_) return out;
+  for (const auto& t : msg.targets) {
+    if (t.fruit_id != current_->id) continue;
+    // The camera-in-hand re-estimate replaces the fixed camera's (eq. 6-15).
+    current_->estimate = vec(t.position_base);
+    hand_target_px_ = Eigen::Vector2d(t.u_px, t.v_px);
+    hand_target_rx_ = now;
+  }
+  return out;
+}
+
+MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
+  MachineOutput out;
+  const bool looking = state_ == State::kAcquire || state_ == State::kApproach || state_ == State::kReacquire ||
+                       state_ == State::kIrApproach;
+  if (!current_ || !looking || msg.status != fruit_detections_t::STATUS_OK || !robot_) return out;
+  // Predict where the current fruit is in this image: the reconstructor's
+  // pixel for it, else our last centroid, else the projected estimate.
+  Eigen::Vector2d predicted;
+  const rt::Micros recent = rt::from_seconds(cfg_.timeouts.lost);
+  if (hand_target_px_ && now - hand_target_rx_ <= recent) {
+    predicted = *hand_target_px_;
+  } else if (pixel_ && now - pixel_rx_ <= recent) {
+    predicted = {pixel_->u, pixel_->v};
+  } else if (!project_point(cfg_.hand_camera, camera().inverse() * current_->estimate, predicted)) {
+    return out;
+  }
+  double best = cfg_.association_gate_px;
+  const fruit_t* match = nullptr;
+  for (const auto& f : msg.fruits) {
+    const double d = (Eigen::Vector2d(f.u_px, f.v_px) - predicted).norm();
+    if (d <= best) {
+      best = d;
+      match = &f;
+    }
+  }
+  if (match != nullptr) {
+    pixel_ = PixelMeasurement{match->u_px, match->v_px, msg.header.utime};
+    pixel_rx_ = now;
+  }
+  return out;
+}
+
+MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micros now) {
+  MachineOutput out;
+  robot_ = msg;
+  robot_rx_ = now;
+  if (!running()) return out;
+  switch (msg.mode) {
+    case robot_state_t::MODE_FAULT:
+      fault("robot fault: " + (msg.fault_text.empty() ? std::string("(no text)") : msg.fault_text), now, out);
+      break;
+    case robot_state_t::MODE_ESTOP: fault("robot reports emergency stop", now, out); break;
+    case robot_state_t::MODE_DISABLED: fault("robot drives disabled", now, out); break;
+    default: break;
+  }
+  return out;
+}
+
+MachineOutput HarvestMachine::on_ir(const ir_range_t& msg, rt::Micros now) {
+  ir_ = msg;
+  ir_rx_ = now;
+  return {};
+}
+
+MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros now) {
+  MachineOutput out;
+  gripper_ = msg;
+  if (!running()) return out;
+  if (auto f = gripper_fault()) {
+    fault(*f, now, out);
+    return out;
+  }
+  switch (state_) {
+    case State::kGrasp:
+      if (msg.state == gripper_state_t::STATE_HOLDING) {
+        Eigen::Isometry3d g = tool();
+        g.translation() -= cfg_.pull_distance * g.rotation().col(2);
+        g.linear() = g.linear() * Eigen::AngleAxisd(cfg_.twist_angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        start_goal(g, State::kDetach, now, out);
+      } else if (msg.state == gripper_state_t::STATE_CLOSED) {
+        out.gripper = gripper_command(gripper_command_t::ACTION_OPEN);
+        fail_fruit(fruit_outcome_t::FAILED_GRASP, "gripper closed on nothing", true, now, out);
+      }
+      break;
+    case State::kDetach:
+    case State::kDrop:
+      if (msg.state != gripper_state_t::STATE_HOLDING) {
+        out.gripper = gripper_command(gripper_command_t::ACTION_OPEN);
+        fail_fruit(fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper", false, now, out);
+      }
+      break;
+    case State::kRelease:
+      if (msg.state == gripper_state_t::STATE_OPEN && current_) {
+        record(fruit_outcome_t::PICKED, current_->id, current_->estimate, "", current_->selected_at, now, out);
+        current_.reset();
+        start_goal(cfg_.home_pose, State::kReturn, now, out);
+      }
+      break;
+    default: break;
+  }
+  return out;
+}
+
+MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Micros now) {
+  MachineOutput out;
+  out.status_changed = true;
+  const std::string who = msg.source.empty() ? "operator" : msg.source;
+  auto refuse = [&](const std::string& why) {
+    note_ = "command refused: " + why;
+    out.log = note_ + " (from " + who + ")";
+  };
+  switch (msg.command) {
+    case operator_command_t::START:
+      if (estop_) {
+        refuse("emergency stop latched");
+        return out;
+      }
+      if (state_ == State::kFault) {
+        refuse("fault latched, send RESET_FAULT");
+        return out;
+      }
+      if (running()) {
+        refuse("already running");
+        return out;
+      }
+      if (!robot_fresh(now)) {
+        refuse("no robot state");
+        return out;
+      }
+      note_ = "started by " + who;
+      enter(State::kSelect, now, out);
+      break;
+    case operator_command_t::PAUSE:
+      if (!running() || paused_) {
+        refuse("nothing to pause");
+        return out;
+      }
+      paused_ = true;
+      paused_at_ = now;
+      note_ = "paused by " + who;
+      out.robot = stop_command();
+      break;
+    case operator_command_t::RESUME:
+      if (!paused_) {
+        refuse("not paused");
+        return out;
+      }
+      paused_ = false;
+      // Timeouts do not run while paused.
+      if (deadline_ != 0) deadline_ += now - paused_at_;
+      limiter_.reset();
+      note_ = "resumed by " + who;
+      break;
+    case operator_command_t::ABORT:
+      if (current_)
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator abort", current_->selected_at,
+               now, out);
+      current_.reset();
+      paused_ = false;
+      if (!estop_) {
+        enter(State::kIdle, now, out);
+        stop_pending_ = false;
+      }
+      note_ = "aborted by " + who;
+      out.robot = stop_command();
+      break;
+    case operator_command_t::HOME:
+      if (estop_) {
+        refuse("emergency stop latched");
+        return out;
+      }
+      if (state_ == State::kFault) {
+        refuse("fault latched, send RESET_FAULT");
+        return out;
+      }
+      if (!robot_fresh(now)) {
+        refuse("no robot state");
+        return out;
+      }
+      if (current_)
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator home", current_->selected_at,
+               now, out);
+      current_.reset();
+      paused_ = false;
+      start_goal(cfg_.home_pose, State::kHoming, now, out);
+      note_ = "homing (" + who + ")";
+      break;
+    case operator_command_t::RESET_FAULT:
+      if (state_ != State::kFault) {
+        refuse("no fault to reset");
+        return out;
+      }
+      note_ = "fault reset by " + who;
+      enter(State::kIdle, now, out);
+      break;
+    default: {
+        refuse("unknown command " + std::to_string(msg.command));
+        return out;
+      }
+  }
+  return out;
+}
+
+MachineOutput HarvestMachine::on_estop(const emergency_stop_t& msg, rt::Micros now) {
+  MachineOutput out;
+  if (msg.engaged) {
+    // Stop first, then bookkeeping: the STOP goes out with this very message.
+    out.robot = stop_command();
+    if (!estop_) {
+      if (current_)
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "emergency stop", current_->selected_at,
+               now, out);
+      current_.reset();
+      estop_ = true;
+      paused_ = false;
+      enter(State::kEstop, now, out);
+      note_ = "EMERGENCY STOP from " + msg.source + (msg.reason.empty() ? "" : ": " + msg.reason);
+      out.log = note_;
+    }
+  } else if (msg.clear && estop_) {
+    estop_ = false;
+    note_ = "emergency stop cleared by " + msg.source;
+    out.log = note_;
+    enter(State::kIdle, now, out);
+    stop_pending_ = false;
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- control step
+
+MachineOutput HarvestMachine::tick(rt::Micros now) {
+  MachineOutput out;
+  if (estop_ || state_ == State::kFault) {
+    out.robot = stop_command();  // keep the arm held while latched
+    return out;
+  }
+  if (stop_pending_) {
+    stop_pending_ = false;
+    out.robot = stop_command();
+  }
+  if (!running()) return out;
+  if (!robot_fresh(now)) {
+    fault("robot state stale (watchdog)", now, out);
+    return out;
+  }
+  if (paused_) {
+    out.robot = stop_command();
+    return out;
+  }
+  if (deadline_ != 0 && now >= deadline_) {
+    on_timeout(now, out);
+    return out;
+  }
+  step(now, out);
+  return out;
+}
+
+void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
+  const Twist hold;
+  switch (state_) {
+    case State::kSelect:
+      if (fixed_ && fixed_rx_ > entered_at_) select(now, out);
+      return;
+    case State::kOrient:
+    case State::kBackoff:
+    case State::kDetach:
+    case State::kDrop:
+    case State::kRetreat:
+    case State::kReturn:
+    case State::kHoming:
+      if (!goal_reached()) {
+        out.robot = goal_command();  // re-sent every tick as a keep-alive, same goal_id
+        return;
+      }
+      switch (state_) {
+        case State::kOrient: enter(State::kAcquire, now, out); break;
+        case State::kBackoff:
+          ++ir_attempt_;
+          enter(State::kIrApproach, now, out);
+          break;
+        case State::kDetach: start_goal(cfg_.drop_pose, State::kDrop, now, out); break;
+        case State::kDrop:
+          enter(State::kRelease, now, out);
+          out.gripper = gripper_command(gripper_command_t::ACTION_OPEN);
+          break;
+        case State::kRetreat: start_goal(cfg_.home_pose, State::kReturn, now, out); break;
+        case State::kReturn: enter(State::kSelect, now, out); break;
+        default:
+          note_ = "at home";
+          enter(State::kIdle, now, out);
+          break;
+      }
+      return;
+    case State::kAcquire:
+      out.robot = twist_command(hold);
+      if (fresh_pixel(now) && pixel_rx_ > entered_at_) enter(State::kApproach, now, out);
+      return;
+    case State::kReacquire:
+      out.robot = twist_command(hold);
+      if (fresh_pixel(now) && pixel_rx_ > entered_at_) enter(State::kApproach, now, out);
+      return;
+    case State::kApproach: {
+      const auto pixel = fresh_pixel(now);
+      if (!pixel) {
+        enter(State::kReacquire, now, out);
+        out.robot = twist_command(hold);
+        return;
+      }
+      const Eigen::Isometry3d t = tool();
+      const double remaining = (current_->estimate - t.translation()).dot(t.rotation().col(2));
+      if (remaining <= cfg_.ir_switch_distance) {
+        ir_attempt_ = 1;
+        ir_start_ = t.translation();
+        note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm";
+        enter(State::kIrApproach, now, out);
+        // fall through to the first IR-guided command below
+      } else {
+        ApproachInput in{now, t, camera(), current_->estimate, pixel, std::nullopt};
+        out.robot = twist_command(approach_->update(in).twist);
+        return;
+      }
+      [[fallthrough]];
+    }
+    case State::kIrApproach: {
+      const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
+      const bool inside = ir_fresh &&
+                          (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
+                          ir_->range_m <= cfg_.ir_grasp_range;
+      if (inside) {
+        // Thesis HarvestStep5: stop and close the gripper on the fruit.
+        out.robot = stop_command();
+        out.gripper = gripper_command(gripper_command_t::ACTION_CLOSE);
+        enter(State::kGrasp, now, out);
+        return;
+      }
+      if ((tool().translation() - ir_start_).norm() > cfg_.ir_max_travel) {
+        on_timeout(now, out);  // out of travel: same as the IR timeout
+        return;
+      }
+      if (!ir_fresh) {
+        out.robot = twist_command(hold);  // never advance blind
+        return;
+      }
+      ApproachInput in{now, tool(), camera(), current_->estimate, fresh_pixel(now), cfg_.ir_approach_speed};
+      out.robot = twist_command(approach_->update(in).twist);
+      return;
+    }
+    case State::kGrasp:
+    case State::kRelease: out.robot = stop_command(); return;
+    default: return;
+  }
+}
+
+}  // namespace harvest::servo

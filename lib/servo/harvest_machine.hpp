@@ -1,0 +1,165 @@
+// The harvest sequence (thesis section 4.4, appendix D HarvestStep1..6) as a
+// pure state machine: messages and ticks in, commands out. No LCM, no clock,
+// no logging: ServoControllerNode wires it to the bus.
+//
+//   IDLE -START-> SELECT -> ORIENT -> ACQUIRE -> APPROACH -> IR_APPROACH -> GRASP
+//     -> DETACH -> DROP -> RELEASE -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
+//   failures: APPROACH <-> REACQUIRE -> LOST; IR_APPROACH -> BACKOFF -> IR_APPROACH
+//     -> FAILED_GRASP; each then RETREAT -> RETURN -> SELECT. Faults -> FAULT
+//     (until RESET_FAULT), emergency stop -> ESTOP (latched until cleared).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "harvest/emergency_stop_t.hpp"
+#include "harvest/fruit_detections_t.hpp"
+#include "harvest/fruit_outcome_t.hpp"
+#include "harvest/gripper_command_t.hpp"
+#include "harvest/gripper_state_t.hpp"
+#include "harvest/harvest_status_t.hpp"
+#include "harvest/ir_range_t.hpp"
+#include "harvest/operator_command_t.hpp"
+#include "harvest/robot_command_t.hpp"
+#include "harvest/robot_state_t.hpp"
+#include "harvest/targets_t.hpp"
+#include "runtime/clock.hpp"
+#include "servo/approach.hpp"
+#include "servo/motion_limits.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+enum class State {
+  kIdle,
+  kSelect,
+  kOrient,
+  kAcquire,
+  kApproach,
+  kReacquire,
+  kIrApproach,
+  kBackoff,
+  kGrasp,
+  kDetach,
+  kDrop,
+  kRelease,
+  kRetreat,
+  kReturn,
+  kHoming,
+  kDone,
+  kFault,
+  kEstop,
+};
+const char* state_name(State s);
+
+// What to publish after one input or tick.
+struct MachineOutput {
+  std::optional<robot_command_t> robot;
+  std::optional<gripper_command_t> gripper;
+  bool status_changed = false;
+  std::string log;  // a line worth logging (refused command, fault), empty if none
+};
+
+class HarvestMachine {
+ public:
+  HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach);
+
+  MachineOutput on_targets(const targets_t& msg, rt::Micros now);
+  MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now);
+  MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
+  MachineOutput on_ir(const ir_range_t& msg, rt::Micros now);
+  MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
+  MachineOutput on_operator(const operator_command_t& msg, rt::Micros now);
+  MachineOutput on_estop(const emergency_stop_t& msg, rt::Micros now);
+  // The control step, called at config.tick_period_s.
+  MachineOutput tick(rt::Micros now);
+
+  State state() const { return state_; }
+  bool paused() const { return paused_; }
+  bool estop() const { return estop_; }
+  int current_fruit() const { return current_ ? current_->id : -1; }
+  const std::vector<fruit_outcome_t>& outcomes() const { return outcomes_; }
+  // HARVEST_STATUS content (the node fills seq and publish time).
+  harvest_status_t status() const;
+  std::string summary() const;
+  int64_t workspace_clips() const { return limiter_.workspace_clips(); }
+
+ private:
+  struct Fruit {
+    int id = -1;
+    Eigen::Vector3d estimate = Eigen::Vector3d::Zero();  // base frame, best so far
+    rt::Micros selected_at = 0;
+  };
+  struct Timed {
+    rt::Micros rx = 0;  // receive time on our clock
+  };
+
+  bool running() const;
+  bool robot_fresh(rt::Micros now) const;
+  Eigen::Isometry3d tool() const;
+  Eigen::Isometry3d camera() const;
+  std::optional<PixelMeasurement> fresh_pixel(rt::Micros now) const;
+
+  void enter(State s, rt::Micros now, MachineOutput& out);
+  void start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out);
+  bool goal_reached() const;
+  Eigen::Isometry3d inside_workspace(const Eigen::Isometry3d& goal) const;
+  void select(rt::Micros now, MachineOutput& out);
+  void on_timeout(rt::Micros now, MachineOutput& out);
+  void step(rt::Micros now, MachineOutput& out);
+  // Ends the current fruit with an outcome; `retreat` pulls back along the
+  // tool axis before returning home.
+  void fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now, MachineOutput& out);
+  void record(int8_t outcome, int fruit_id, const Eigen::Vector3d& target, const std::string& detail,
+              rt::Micros since, rt::Micros now, MachineOutput& out);
+  void fault(const std::string& detail, rt::Micros now, MachineOutput& out);
+  std::optional<std::string> gripper_fault() const;
+
+  robot_command_t command(int8_t type) const;
+  robot_command_t stop_command() const { return command(robot_command_t::TYPE_STOP); }
+  robot_command_t twist_command(const Twist& desired);
+  robot_command_t goal_command() const;
+  gripper_command_t gripper_command(int8_t action) const;
+
+  ServoConfig cfg_;
+  std::unique_ptr<ApproachStrategy> approach_;
+  TwistLimiter limiter_;
+
+  State state_ = State::kIdle;
+  bool paused_ = false;
+  bool estop_ = false;
+  bool stop_pending_ = false;  // publish one STOP on the next tick (entering a resting state)
+  rt::Micros entered_at_ = 0;
+  rt::Micros deadline_ = 0;  // 0: none
+  rt::Micros paused_at_ = 0;
+  std::string note_;
+
+  std::optional<robot_state_t> robot_;
+  rt::Micros robot_rx_ = 0;
+  std::optional<targets_t> fixed_;
+  rt::Micros fixed_rx_ = 0;
+  std::optional<gripper_state_t> gripper_;
+  std::optional<ir_range_t> ir_;
+  rt::Micros ir_rx_ = 0;
+  std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
+  rt::Micros pixel_rx_ = 0;
+  std::optional<Eigen::Vector2d> hand_target_px_;  // reconstructor's pixel of the current fruit
+  rt::Micros hand_target_rx_ = 0;
+
+  std::optional<Fruit> current_;
+  std::map<int, int> attempts_;
+  std::set<int> finished_;
+  std::vector<fruit_outcome_t> outcomes_;
+  int picked_ = 0, lost_ = 0, unreachable_ = 0, failed_grasp_ = 0, aborted_ = 0;
+
+  Eigen::Isometry3d goal_ = Eigen::Isometry3d::Identity();
+  int64_t goal_id_ = 0;
+  int ir_attempt_ = 0;
+  Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace harvest::servo

@@ -1,0 +1,52 @@
+#include "servo/operator_command.hpp"
+
+#include <map>
+#include <stdexcept>
+
+namespace harvest::servo {
+
+namespace {
+const std::map<std::string, int8_t>& commands() {
+  static const std::map<std::string, int8_t> m{
+      {"start", operator_command_t::START}, {"pause", operator_command_t::PAUSE},
+      {"resume", operator_command_t::RESUME}, {"abort", operator_command_t::ABORT},
+      {"home", operator_command_t::HOME}, {"reset-fault", operator_command_t::RESET_FAULT}};
+  return m;
+}
+}  // namespace
+
+const std::vector<std::string>& operator_verbs() {
+  static const std::vector<std::string> v{"start", "pause", "resume", "abort", "home", "reset-fault", "estop",
+                                          "estop-clear"};
+  return v;
+}
+
+OperatorMessage make_operator_message(const std::string& verb, const std::string& source, const std::string& reason,
+                                      rt::Micros utime) {
+  if (verb == "estop" || verb == "estop-clear") {
+    emergency_stop_t e{};
+    e.header.utime = utime;
+    e.header.source_seq = -1;
+    e.header.frame_id = "operator";
+    e.engaged = verb == "estop";
+    e.clear = verb == "estop-clear";
+    e.source = source;
+    e.reason = reason;
+    return e;
+  }
+  const auto it = commands().find(verb);
+  if (it == commands().end()) {
+    std::string valid;
+    for (const auto& v : operator_verbs()) valid += (valid.empty() ? "" : ", ") + v;
+    throw std::invalid_argument("unknown operator command '" + verb + "' (expected one of: " + valid + ")");
+  }
+  operator_command_t c{};
+  c.header.utime = utime;
+  c.header.source_seq = -1;
+  c.header.frame_id = "operator";
+  c.command = it->second;
+  c.source = source;
+  return c;
+}
+
+}  // namespace harvest::servo

@@ -1,0 +1,136 @@
+#include "servo/servo_config.hpp"
+
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <filesystem>
+
+namespace harvest::servo {
+
+using config::Range;
+
+CameraIntrinsics load_camera_intrinsics(const std::string& file) {
+  if (!std::filesystem::exists(file)) throw config::Error(file + ": camera calibration file not found");
+  cv::FileStorage fs;
+  try {
+    fs.open(file, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw config::Error(file + ": cannot parse camera calibration: " + e.what());
+  }
+  if (!fs.isOpened()) throw config::Error(file + ": cannot open camera calibration");
+  cv::Mat k, d;
+  fs["camera_matrix"] >> k;
+  fs["distortion_coefficients"] >> d;
+  if (k.rows != 3 || k.cols != 3) throw config::Error(file + ": camera_matrix: expected a 3x3 matrix");
+  if (d.total() != 5) throw config::Error(file + ": distortion_coefficients: expected 5 numbers (k1 k2 p1 p2 k3)");
+  k.convertTo(k, CV_64F);
+  d.convertTo(d, CV_64F);
+  CameraIntrinsics c;
+  c.fx = k.at<double>(0, 0);
+  c.skew = k.at<double>(0, 1);
+  c.u0 = k.at<double>(0, 2);
+  c.fy = k.at<double>(1, 1);
+  c.v0 = k.at<double>(1, 2);
+  for (int i = 0; i < 5; ++i) c.distortion[static_cast<std::size_t>(i)] = d.at<double>(i);
+  c.width = static_cast<int>(fs["image_width"].real());
+  c.height = static_cast<int>(fs["image_height"].real());
+  if (!(c.fx > 0 && c.fy > 0) || c.width <= 0 || c.height <= 0)
+    throw config::Error(file + ": expected positive focal lengths, image_width and image_height");
+  return c;
+}
+
+bool Workspace::contains(const Eigen::Vector3d& p, double margin) const {
+  const double r = p.norm();
+  return (p.array() >= min.array() + margin).all() && (p.array() <= max.array() - margin).all() &&
+         r >= min_reach + margin && r <= max_reach - margin;
+}
+
+namespace {
+
+Eigen::Vector3d vec3(const config::Node& n, const std::string& key, const Eigen::Vector3d& fallback) {
+  const auto v = n.numbers(key, {fallback.x(), fallback.y(), fallback.z()}, 3);
+  return {v[0], v[1], v[2]};
+}
+
+Eigen::Isometry3d pose(const config::Node& n, const Eigen::Isometry3d& fallback) {
+  const Eigen::Quaterniond q0(fallback.rotation());
+  const Eigen::Vector3d p = vec3(n, "position", fallback.translation());
+  const auto q = n.numbers("orientation_wxyz", {q0.w(), q0.x(), q0.y(), q0.z()}, 4);
+  const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+  if (std::abs(quat.norm() - 1.0) > 1e-3) n.fail("orientation_wxyz", "a unit quaternion (w, x, y, z)");
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = quat.normalized().toRotationMatrix();
+  t.translation() = p;
+  return t;
+}
+
+Eigen::Isometry3d make_pose(double x, double y, double z, double qw, double qx, double qy, double qz) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+  t.translation() = Eigen::Vector3d(x, y, z);
+  return t;
+}
+
+}  // namespace
+
+ServoConfig ServoConfig::from_yaml(const config::Node& n) {
+  ServoConfig c;
+  const Range<double> pos{1e-6, 1e6};
+  const Range<double> nonneg{0.0, 1e6};
+  c.tick_period_s = n.get("tick_period_s", c.tick_period_s, {0.001, 0.5});
+  c.status_period_s = n.get("status_period_s", c.status_period_s, {0.05, 60.0});
+  c.validity_s = n.get("validity_s", c.validity_s, {0.01, 2.0});
+  c.max_linear_speed = n.get("max_linear_speed", c.max_linear_speed, {1e-3, 0.381});
+  c.max_angular_speed = n.get("max_angular_speed", c.max_angular_speed, {1e-3, 3.2});
+  c.max_linear_accel = n.get("max_linear_accel", c.max_linear_accel, pos);
+  c.max_angular_accel = n.get("max_angular_accel", c.max_angular_accel, pos);
+  c.ir_switch_distance = n.get("ir_switch_distance", c.ir_switch_distance, pos);
+  c.ir_approach_speed = n.get("ir_approach_speed", c.ir_approach_speed, pos);
+  c.ir_grasp_range = n.get("ir_grasp_range", c.ir_grasp_range, pos);
+  c.ir_max_travel = n.get("ir_max_travel", c.ir_max_travel, pos);
+  c.ir_attempts = n.get("ir_attempts", c.ir_attempts, {1, 10});
+  c.orient_tolerance = n.get("orient_tolerance", c.orient_tolerance, pos);
+  c.position_tolerance = n.get("position_tolerance", c.position_tolerance, pos);
+  c.retreat_distance = n.get("retreat_distance", c.retreat_distance, nonneg);
+  c.pull_distance = n.get("pull_distance", c.pull_distance, nonneg);
+  c.twist_angle = n.get("twist_angle", c.twist_angle, {-6.3, 6.3});
+  c.max_attempts_per_fruit = n.get("max_attempts_per_fruit", c.max_attempts_per_fruit, {1, 10});
+  c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
+  c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction"});
+  if (c.ir_approach_speed > c.max_linear_speed)
+    n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
+
+  const config::Node ws = n.child("workspace");
+  c.workspace.min = vec3(ws, "min", c.workspace.min);
+  c.workspace.max = vec3(ws, "max", c.workspace.max);
+  c.workspace.min_reach = ws.get("min_reach", c.workspace.min_reach, nonneg);
+  c.workspace.max_reach = ws.get("max_reach", c.workspace.max_reach, pos);
+  if (!(c.workspace.min.array() < c.workspace.max.array()).all()) ws.fail("max", "every element greater than min");
+  if (c.workspace.min_reach >= c.workspace.max_reach) ws.fail("max_reach", "a value greater than min_reach");
+
+  // Home: the thesis experiment I start pose (table 6-5), gripper axis along base +y.
+  c.home_pose = pose(n.child("home_pose"), make_pose(-0.655, 0.785, -0.251, M_SQRT1_2, -M_SQRT1_2, 0, 0));
+  c.drop_pose = pose(n.child("drop_pose"), make_pose(-0.7, 0.6, -0.6, 0, 1, 0, 0));
+  if (!c.workspace.contains(c.home_pose.translation())) n.fail("home_pose", "a position inside the workspace");
+  if (!c.workspace.contains(c.drop_pose.translation())) n.fail("drop_pose", "a position inside the workspace");
+
+  const config::Node g = n.child("gains");
+  c.gains.kp_lateral = g.get("kp_lateral", c.gains.kp_lateral, nonneg);
+  c.gains.kd_lateral = g.get("kd_lateral", c.gains.kd_lateral, nonneg);
+  c.gains.kp_depth = g.get("kp_depth", c.gains.kp_depth, nonneg);
+  c.gains.kd_depth = g.get("kd_depth", c.gains.kd_depth, nonneg);
+  c.gains.derivative_filter = g.get("derivative_filter", c.gains.derivative_filter, {0.0, 1.0});
+
+  const config::Node t = n.child("timeouts_s");
+  Timeouts& to = c.timeouts;
+  for (auto [key, value] : {std::pair{"select", &to.select}, {"motion", &to.motion}, {"acquire", &to.acquire},
+                            {"lost", &to.lost}, {"reacquire", &to.reacquire}, {"approach", &to.approach},
+                            {"ir_approach", &to.ir_approach}, {"grasp", &to.grasp}, {"release", &to.release},
+                            {"robot_state", &to.robot_state}, {"ir_stale", &to.ir_stale}})
+    *value = t.get(key, *value, {0.01, 600.0});
+
+  c.hand_camera = load_camera_intrinsics(n.file_path("hand_camera_calibration", "config/cameras/hand.yaml").string());
+  return c;
+}
+
+}  // namespace harvest::servo

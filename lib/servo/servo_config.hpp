@@ -1,0 +1,93 @@
+// Configuration of the servo controller (config/servo/controller.yaml).
+// Lengths in metres, angles in radians, times in seconds, unless a key says
+// otherwise. Every key has a default taken from the thesis where it gives one.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <array>
+#include <string>
+
+#include "config/config.hpp"
+
+namespace harvest::servo {
+
+// Pinhole camera with OpenCV's distortion model (k1 k2 p1 p2 k3), eq. 6-9.
+struct CameraIntrinsics {
+  double fx = 833.57, fy = 767.02, skew = 0.0, u0 = 319.5, v0 = 239.5;
+  std::array<double, 5> distortion{};  // k1 k2 p1 p2 k3
+  int width = 640, height = 480;
+};
+
+// Reads an OpenCV calibration file (camera_matrix, distortion_coefficients,
+// image_width, image_height). Throws config::Error naming the file.
+CameraIntrinsics load_camera_intrinsics(const std::string& file);
+
+// Axis-aligned box in the base frame plus a reach shell around the base
+// origin: a commanded motion never leaves it, a target outside is skipped.
+struct Workspace {
+  Eigen::Vector3d min{-1.0, 0.3, -1.0};
+  Eigen::Vector3d max{0.8, 1.4, 0.3};
+  double min_reach = 0.3;
+  double max_reach = 1.5;
+  bool contains(const Eigen::Vector3d& p, double margin = 0.0) const;
+};
+
+struct Gains {
+  double kp_lateral = 2.0;  // [1/s] on the metric centring error (eq. 6-25, 6-26)
+  double kd_lateral = 0.05; // [s]
+  double kp_depth = 1.0;    // [1/s] on the depth error (eq. 6-27)
+  double kd_depth = 0.0;    // [s]
+  double derivative_filter = 0.5;  // low-pass weight of the newest error derivative, 0..1
+};
+
+struct Timeouts {
+  double select = 3.0;        // wait for a fresh fixed-camera view
+  double motion = 20.0;       // any pose-goal motion (orient, detach, drop, return, home)
+  double acquire = 3.0;       // fruit must appear in the hand camera after orienting
+  double lost = 0.3;          // no hand measurement this long -> hold and re-acquire
+  double reacquire = 2.0;     // ... and give the fruit up (LOST) after this long
+  double approach = 30.0;     // whole visual approach
+  double ir_approach = 8.0;   // one IR-guided attempt
+  double grasp = 3.0;         // gripper must report holding / closed
+  double release = 3.0;       // gripper must report open
+  double robot_state = 0.25;  // robot state watchdog while running
+  double ir_stale = 0.3;      // IR reading older than this: do not advance
+};
+
+struct ServoConfig {
+  double tick_period_s = 0.02;       // command rate (50 Hz)
+  double status_period_s = 1.0;      // periodic HARVEST_STATUS
+  double validity_s = 0.1;           // validity window of every robot command
+  double max_linear_speed = 0.381;   // [m/s] thesis 15 in/s
+  double max_angular_speed = 0.8;    // [rad/s]
+  double max_linear_accel = 1.0;     // [m/s^2]
+  double max_angular_accel = 3.0;    // [rad/s^2]
+
+  double ir_switch_distance = 0.4572;  // [m] thesis 18 in: switch to IR guidance
+  double ir_approach_speed = 0.1;      // [m/s] forward speed under IR guidance
+  double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
+  double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
+  int ir_attempts = 2;                 // IR approaches per fruit (thesis: retry once)
+  double orient_tolerance = 0.02;      // [rad] orientation reached
+  double position_tolerance = 0.005;   // [m] pose goal reached
+  double retreat_distance = 0.15;      // [m] pull back along the tool axis after a failure
+  double pull_distance = 0.10;         // [m] detach: pull back along the tool axis ...
+  double twist_angle = 1.5708;         // [rad] ... while twisting about it
+  int max_attempts_per_fruit = 1;      // a failed fruit is retried at most this many times in total
+  double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
+
+  Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();
+  Workspace workspace;
+  Gains gains;
+  Timeouts timeouts;
+  CameraIntrinsics hand_camera;
+  std::string approach_mode = "reconstruction";  // pluggable approach strategy (approach.hpp)
+
+  // Reads the `servo` section layout documented in docs/servo-controller.md.
+  // Throws config::Error (bad value, home/drop pose outside the workspace).
+  static ServoConfig from_yaml(const config::Node& node);
+};
+
+}  // namespace harvest::servo

@@ -1,0 +1,295 @@
+#include "sim_harness.hpp"
+
+#include <cmath>
+
+#include "harvest/fruit_detections_t.hpp"
+#include "harvest/gripper_state_t.hpp"
+#include "harvest/ir_range_t.hpp"
+#include "harvest/targets_t.hpp"
+#include "runtime/channels.hpp"
+#include "servo/geometry.hpp"
+#include "servo/motion_limits.hpp"
+
+namespace harvest::servo::testing {
+
+namespace ch = harvest::channels;
+
+// ---------------------------------------------------------------- bus
+
+void SimBus::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
+  const auto* p = static_cast<const uint8_t*>(data);
+  rt::LogRecord r{clock_.now(), channel, std::vector<uint8_t>(p, p + size)};
+  log_.push_back(r);
+  pending_.push_back(std::move(r));
+}
+
+void SimBus::drain() {
+  while (!pending_.empty()) {
+    rt::LogRecord r = std::move(pending_.front());
+    pending_.pop_front();
+    deliver(r.channel, r.data.data(), r.data.size(), clock_.now());
+  }
+}
+
+void SimBus::run_until(rt::Micros t) {
+  while (true) {
+    const auto due = timers_.next_due();
+    if (!due || *due > t) break;
+    timers_.fire_due(*due, [this](rt::Micros d) { clock_.set(d); });
+    drain();
+  }
+  clock_.set(std::max(clock_.now(), t));
+}
+
+// ---------------------------------------------------------------- arm
+
+ArmDouble::ArmDouble(const WorldSpec& spec) : rt::Node("arm-double"), spec_(spec), tool_(spec.start_tool) {}
+
+Eigen::Isometry3d ArmDouble::camera() const {
+  Eigen::Isometry3d c = tool_;
+  c.translation() -= spec_.camera_behind_tcp * tool_.rotation().col(2);
+  return c;
+}
+
+void ArmDouble::on_attach() {
+  start_ = now();
+  advertise(ch::kRobotState);
+  subscribe<robot_command_t>(ch::kRobotCommand, [this](const robot_command_t& c) {
+    cmd_ = c;
+    cmd_rx_ = now();
+  });
+  // Phase-shifted from the controller's 20 ms ticks so no two events tie.
+  ctx().add_timer(now() + 3 * rt::kMilli, 10 * rt::kMilli, [this] { step(); });
+  step();
+}
+
+void ArmDouble::step() {
+  const double dt = 0.01;
+  const double t = rt::to_seconds(now() - start_);
+  if (spec_.robot_fault_after_s && t >= *spec_.robot_fault_after_s) fault_ = true;
+  if (spec_.robot_silent_after_s && t >= *spec_.robot_silent_after_s) return;
+  const bool valid = cmd_ && now() - cmd_rx_ <= cmd_->validity_us && !fault_;
+  Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+  if (valid && cmd_->type == robot_command_t::TYPE_TWIST) {
+    v = Eigen::Vector3d(cmd_->twist.linear[0], cmd_->twist.linear[1], cmd_->twist.linear[2]);
+    w = Eigen::Vector3d(cmd_->twist.angular[0], cmd_->twist.angular[1], cmd_->twist.angular[2]);
+  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL) {
+    const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
+    const Eigen::Vector3d dp = goal.translation() - tool_.translation();
+    v = clamp_norm(dp / dt, cmd_->max_linear_speed);
+    const Eigen::AngleAxisd err(goal.rotation() * tool_.rotation().transpose());
+    w = clamp_norm(err.axis() * err.angle() / dt, cmd_->max_angular_speed);
+  }
+  tool_.translation() += v * dt;
+  if (w.norm() > 0) tool_.linear() = Eigen::AngleAxisd(w.norm() * dt, w.normalized()) * tool_.rotation();
+
+  robot_state_t s{};
+  s.header.utime = now();
+  s.header.source_seq = -1;
+  s.header.frame_id = "base";
+  s.mode = fault_ ? robot_state_t::MODE_FAULT : (valid ? robot_state_t::MODE_MOVING : robot_state_t::MODE_IDLE);
+  s.num_joints = 0;
+  s.tool_pose = to_pose(tool_);
+  s.camera_pose = to_pose(camera());
+  s.tool_twist = to_twist(v, w);
+  s.fault_text = fault_ ? "joint 2 following error" : "";
+  publish(ch::kRobotState, s);
+}
+
+// ---------------------------------------------------------------- world
+
+WorldDouble::WorldDouble(const WorldSpec& spec, const ArmDouble& arm)
+    : rt::Node("world-double"), spec_(spec), arm_(arm), where_(spec.fruits.size(), Where::kTree), rng_(spec.seed) {}
+
+bool WorldDouble::fruit_picked(int id) const {
+  for (std::size_t i = 0; i < spec_.fruits.size(); ++i)
+    if (spec_.fruits[i].id == id) return where_[i] == Where::kDropped;
+  return false;
+}
+
+void WorldDouble::on_attach() {
+  start_ = now();
+  advertise(ch::kTargets);
+  advertise(ch::kFruitHand);
+  advertise(ch::kIrRange);
+  advertise(ch::kGripperState);
+  subscribe<gripper_command_t>(ch::kGripperCommand, [this](const gripper_command_t& c) {
+    if (c.action == gripper_command_t::ACTION_CLOSE) {
+      gripper_ = gripper_state_t::STATE_CLOSING;
+      closing_since_ = now();
+      close_position_ = arm_.tool().translation();
+    } else if (c.action == gripper_command_t::ACTION_OPEN) {
+      gripper_ = gripper_state_t::STATE_OPEN;
+      for (auto& w : where_)
+        if (w == Where::kGripper) w = Where::kDropped;
+    }
+  });
+  // Odd phases: never at the same time as a controller tick (multiples of 10 ms).
+  ctx().add_timer(now() + 7 * rt::kMilli, 100 * rt::kMilli, [this] { publish_fixed(); });
+  ctx().add_timer(now() + 11 * rt::kMilli, 30 * rt::kMilli, [this] { publish_hand(); });
+  ctx().add_timer(now() + 13 * rt::kMilli, 20 * rt::kMilli, [this] { publish_ir(); });
+  ctx().add_timer(now() + 17 * rt::kMilli, 50 * rt::kMilli, [this] { publish_gripper(); });
+}
+
+void WorldDouble::publish_fixed() {
+  targets_t m{};
+  m.header.utime = now();
+  m.header.frame_id = "base";
+  m.header.source_seq = -1;
+  m.source_camera = "fixed";
+  m.selected_fruit_id = -1;
+  for (std::size_t i = 0; i < spec_.fruits.size(); ++i) {
+    if (where_[i] != Where::kTree) continue;
+    const auto& f = spec_.fruits[i];
+    target_t t{};
+    t.fruit_id = f.id;
+    t.source_camera = "fixed";
+    const Eigen::Vector3d p = f.position + spec_.fixed_error;
+    for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
+    t.covariance_base[0] = t.covariance_base[4] = t.covariance_base[8] = 0.05 * 0.05;
+    t.diameter_m = 0.075;
+    t.confidence = 1.0f;
+    t.cost = static_cast<float>(i);
+    m.targets.push_back(t);
+  }
+  m.num_targets = static_cast<int32_t>(m.targets.size());
+  publish(ch::kTargets, m);
+}
+
+void WorldDouble::publish_hand() {
+  const double t = since_start();
+  bool hidden = spec_.hide_hand_after_s && t >= *spec_.hide_hand_after_s;
+  if (hidden && spec_.hide_hand_for_s && t >= *spec_.hide_hand_after_s + *spec_.hide_hand_for_s) hidden = false;
+  const Eigen::Isometry3d cam = arm_.camera();
+  const CameraIntrinsics& k = spec_.true_hand;
+  fruit_detections_t det{};
+  det.header.utime = now();
+  det.header.frame_id = "camera_hand";
+  det.header.source_seq = -1;
+  det.camera = "hand";
+  det.image_width = k.width;
+  det.image_height = k.height;
+  det.status = fruit_detections_t::STATUS_OK;
+  det.selected_index = -1;
+  targets_t tg{};
+  tg.header = det.header;
+  tg.source_camera = "hand";
+  tg.selected_fruit_id = -1;
+  std::uniform_real_distribution<double> noise(-spec_.pixel_noise, spec_.pixel_noise);
+  for (std::size_t i = 0; i < spec_.fruits.size() && !hidden; ++i) {
+    if (where_[i] != Where::kTree) continue;
+    const auto& f = spec_.fruits[i];
+    const Eigen::Vector3d pc = cam.inverse() * f.position;
+    Eigen::Vector2d px;
+    if (pc.z() < 0.05 || !project_point(k, pc, px)) continue;
+    const double diameter_px = k.fx * f.diameter / pc.z();
+    if (px.x() < 0 || px.y() < 0 || px.x() >= k.width || px.y() >= k.height || diameter_px > 0.9 * k.width) continue;
+    px += Eigen::Vector2d(noise(rng_), noise(rng_));
+    fruit_t d{};
+    d.id = static_cast<int32_t>(100 + i);  // the hand detector's own track id
+    d.u_px = static_cast<float>(px.x());
+    d.v_px = static_cast<float>(px.y());
+    d.diameter_px = static_cast<float>(diameter_px);
+    d.confidence = 1.0f;
+    det.fruits.push_back(d);
+    // The reconstructor: the software's calibration and a biased depth (eq. 6-14, 6-15).
+    const Eigen::Vector2d m = undistort_pixel(spec_.assumed_hand, px.x(), px.y());
+    const double z = pc.z() * spec_.hand_depth_scale;
+    const Eigen::Vector3d est_cam(m.x() * z, m.y() * z, z);
+    const Eigen::Vector3d est_base = cam * est_cam;
+    target_t ht{};
+    ht.fruit_id = f.id;  // associated with the fixed-camera track
+    ht.source_camera = "hand";
+    for (int j = 0; j < 3; ++j) {
+      ht.position_base[j] = est_base[j];
+      ht.position_camera[j] = est_cam[j];
+    }
+    ht.depth_m = z;
+    ht.u_px = d.u_px;
+    ht.v_px = d.v_px;
+    ht.diameter_px = d.diameter_px;
+    tg.targets.push_back(ht);
+  }
+  det.num_fruits = static_cast<int32_t>(det.fruits.size());
+  tg.num_targets = static_cast<int32_t>(tg.targets.size());
+  publish(ch::kFruitHand, det);
+  publish(ch::kTargets, tg);
+}
+
+void WorldDouble::publish_ir() {
+  const Eigen::Isometry3d tool = arm_.tool();
+  const Eigen::Vector3d axis = tool.rotation().col(2);
+  const Eigen::Vector3d sensor = tool.translation() - spec_.ir_behind_tcp * axis;
+  double range = 1e9;
+  for (std::size_t i = 0; i < spec_.fruits.size() && !spec_.ir_dead; ++i) {
+    if (where_[i] != Where::kTree) continue;
+    const Eigen::Vector3d d = spec_.fruits[i].position - sensor;
+    const double along = d.dot(axis);
+    const double lateral = (d - along * axis).norm();
+    const double r = spec_.fruits[i].diameter / 2;
+    if (along > 0 && lateral < 0.7 * r) range = std::min(range, along - std::sqrt(r * r - lateral * lateral));
+  }
+  ir_range_t m{};
+  m.header.utime = now();
+  m.header.frame_id = "ir";
+  m.header.source_seq = -1;
+  m.validity = range < 0.01 ? ir_range_t::TOO_NEAR : range > 0.5 ? ir_range_t::TOO_FAR : ir_range_t::VALID;
+  m.range_m = static_cast<float>(std::clamp(range, 0.01, 0.5));
+  m.raw = static_cast<int32_t>(1000.0 / m.range_m);
+  publish(ch::kIrRange, m);
+}
+
+void WorldDouble::publish_gripper() {
+  const bool faulty = spec_.gripper_fault_after_s && since_start() >= *spec_.gripper_fault_after_s;
+  if (gripper_ == gripper_state_t::STATE_CLOSING && now() - closing_since_ >= 300 * rt::kMilli) {
+    gripper_ = gripper_state_t::STATE_CLOSED;
+    for (std::size_t i = 0; i < spec_.fruits.size() && !spec_.gripper_misses; ++i) {
+      if (where_[i] == Where::kTree && (spec_.fruits[i].position - arm_.tool().translation()).norm() < 0.03) {
+        where_[i] = Where::kGripper;
+        gripper_ = gripper_state_t::STATE_HOLDING;
+      }
+    }
+  }
+  gripper_state_t s{};
+  s.header.utime = now();
+  s.header.frame_id = "gripper";
+  s.header.source_seq = -1;
+  s.state = faulty ? gripper_state_t::STATE_FAULT : gripper_;
+  s.position = gripper_ == gripper_state_t::STATE_OPEN ? 1.0f : 0.0f;
+  s.connected = true;
+  s.fault_code = faulty ? 7 : 0;
+  s.fault_text = faulty ? "motor overcurrent" : "";
+  publish(ch::kGripperState, s);
+}
+
+// ---------------------------------------------------------------- scenarios
+
+Eigen::Isometry3d thesis_start_pose() {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();  // z along base +y
+  t.translation() = Eigen::Vector3d(-0.655, 0.785, -0.251);
+  return t;
+}
+
+ServoConfig test_config() {
+  const auto doc = config::Document::load_string("{}");
+  return ServoConfig::from_yaml(doc.root());
+}
+
+WorldSpec experiment_one() {
+  WorldSpec w;
+  w.fruits.push_back({1, Eigen::Vector3d(-0.2286, 1.0668, -0.5402), 0.075});  // table 6-3
+  w.start_tool = thesis_start_pose();                                          // table 6-5
+  w.assumed_hand = test_config().hand_camera;
+  w.true_hand = w.assumed_hand;
+  w.true_hand.fx *= 1.04;  // the real lens differs from its calibration
+  w.true_hand.fy *= 0.97;
+  w.true_hand.u0 += 6.0;
+  w.true_hand.v0 -= 4.0;
+  // Table 6-4 estimate minus table 6-3 truth: (-237, 1060, -395) - (-228.6, 1066.8, -540.2) mm.
+  w.fixed_error = Eigen::Vector3d(-0.0084, -0.0068, 0.1452);
+  w.hand_depth_scale = 1.08;
+  return w;
+}
+
+}  // namespace harvest::servo::testing

@@ -1,0 +1,155 @@
+// Closed-loop test harness for the servo controller, all in one process on a
+// manual clock: an in-process bus with the replay runner's ordering rules, a
+// kinematic arm double (integrates twists and pose goals, publishes
+// ROBOT_STATE) and a world double (true fruit; synthetic fixed-camera
+// targets, hand-camera detections and targets, IR range and gripper state
+// generated from the truth with injected calibration errors and faults).
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <deque>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "harvest/gripper_command_t.hpp"
+#include "harvest/robot_command_t.hpp"
+#include "harvest/robot_state_t.hpp"
+#include "runtime/dispatcher.hpp"
+#include "runtime/log_io.hpp"
+#include "runtime/node.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo::testing {
+
+// Mirrors rt::ReplayRunner: timers due at or before a time fire first, one at
+// a time; what nodes publish reaches the other nodes at once, in order.
+class SimBus final : public rt::Dispatcher {
+ public:
+  explicit SimBus(rt::Micros start) : rt::Dispatcher(""), clock_(start) {}
+  void start() { attach_all(); drain(); }
+  void run_until(rt::Micros t);
+  template <class Msg>
+  void inject(const std::string& channel, Msg msg) {
+    std::vector<uint8_t> bytes = rt::encode(msg);
+    publish_bytes(channel, bytes.data(), bytes.size());
+    drain();
+  }
+  void inject_raw(const std::string& channel, const std::vector<uint8_t>& bytes) {
+    publish_bytes(channel, bytes.data(), bytes.size());
+    drain();
+  }
+
+  rt::Micros now() const override { return clock_.now(); }
+  void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
+  void watch_fd(int, std::function<void()>) override { throw std::logic_error("no fds in the harness"); }
+  void unwatch_fd(int) override {}
+  void request_stop(int) override {}
+
+  const std::vector<rt::LogRecord>& log() const { return log_; }
+  template <class Msg>
+  std::vector<std::pair<rt::Micros, Msg>> messages(const std::string& channel) const {
+    std::vector<std::pair<rt::Micros, Msg>> out;
+    for (const auto& r : log_)
+      if (r.channel == channel) out.emplace_back(r.timestamp, *rt::decode<Msg>(r.data));
+    return out;
+  }
+
+ private:
+  void drain();
+  rt::ManualClock clock_;
+  std::deque<rt::LogRecord> pending_;
+  std::vector<rt::LogRecord> log_;
+};
+
+struct FruitTruth {
+  int id = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // base frame [m]
+  double diameter = 0.075;
+};
+
+struct WorldSpec {
+  std::vector<FruitTruth> fruits;
+  Eigen::Isometry3d start_tool = Eigen::Isometry3d::Identity();
+  double camera_behind_tcp = 0.06;  // camera-in-hand optical centre behind the tool point [m]
+  double ir_behind_tcp = 0.05;      // IR sensor behind the tool point [m]
+  CameraIntrinsics true_hand;       // the real camera
+  CameraIntrinsics assumed_hand;    // the reconstructor's calibration
+  Eigen::Vector3d fixed_error = Eigen::Vector3d::Zero();  // fixed-camera estimate minus truth [m]
+  double hand_depth_scale = 1.0;    // estimated / true depth in the hand camera
+  double pixel_noise = 0.5;         // uniform +- [px]
+  uint32_t seed = 1;
+  // Fault injection (times relative to the start).
+  std::optional<double> hide_hand_after_s;   // fruit disappears from the hand camera for good
+  std::optional<double> hide_hand_for_s;     // ... only for this long
+  bool ir_dead = false;                      // IR always reports TOO_FAR
+  bool gripper_misses = false;               // closes on nothing
+  std::optional<double> gripper_fault_after_s;
+  std::optional<double> robot_fault_after_s;
+  std::optional<double> robot_silent_after_s;
+};
+
+// The arm: integrates the last valid command every 10 ms and publishes its state.
+class ArmDouble final : public rt::Node {
+ public:
+  explicit ArmDouble(const WorldSpec& spec);
+  const Eigen::Isometry3d& tool() const { return tool_; }
+  Eigen::Isometry3d camera() const;
+  bool fault() const { return fault_; }
+
+ protected:
+  void on_attach() override;
+
+ private:
+  void step();
+  const WorldSpec& spec_;
+  Eigen::Isometry3d tool_;
+  std::optional<robot_command_t> cmd_;
+  rt::Micros cmd_rx_ = 0;
+  rt::Micros start_ = 0;
+  bool fault_ = false;
+};
+
+// The world: sensors derived from the truth and the arm's true pose.
+class WorldDouble final : public rt::Node {
+ public:
+  WorldDouble(const WorldSpec& spec, const ArmDouble& arm);
+  bool fruit_picked(int id) const;
+  // Tool position when the gripper was last told to close, if ever.
+  const std::optional<Eigen::Vector3d>& close_position() const { return close_position_; }
+
+ protected:
+  void on_attach() override;
+
+ private:
+  enum class Where { kTree, kGripper, kDropped };
+  void publish_fixed();
+  void publish_hand();
+  void publish_ir();
+  void publish_gripper();
+  double since_start() const { return rt::to_seconds(now() - start_); }
+
+  const WorldSpec& spec_;
+  const ArmDouble& arm_;
+  std::vector<Where> where_;
+  std::mt19937 rng_;
+  rt::Micros start_ = 0;
+  int8_t gripper_ = 1;  // gripper_state_t::STATE_OPEN
+  rt::Micros closing_since_ = 0;
+  std::optional<Eigen::Vector3d> close_position_;
+};
+
+// Experiment I of the thesis (tables 6-3, 6-5): the truth uses the
+// table-consistent extrinsic, the fixed-camera estimate carries the error
+// of table 6-4, the hand camera's calibration is off.
+WorldSpec experiment_one();
+
+// The thesis start pose: tool at (-655, 785, -251) mm, gripper axis along base +y.
+Eigen::Isometry3d thesis_start_pose();
+
+// A controller configuration for the tests (config/cameras/hand.yaml intrinsics).
+ServoConfig test_config();
+
+}  // namespace harvest::servo::testing
