@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Figures like thesis 5-5..5-9 from harvest-tbz-sim CSV output.
 
 usage: plot_tbz.py --csv DIR --out DIR

@@ -91,6 +91,17 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.random_fruit.min_separation = rf.get<double>("min_separation_mm", 90.0, {0.0, 1000.0}) * kMm;
 
   const auto c = root.child("canopy");
+  if (c.has("placed_leaves")) {
+    for (const auto& l : c.children("placed_leaves")) {
+      PlacedLeaf leaf;
+      leaf.centre = vec3(l.numbers("centre_mm", 3), kMm);
+      leaf.facing = vec3(l.numbers("facing_mm", 3), kMm);
+      if ((leaf.facing - leaf.centre).norm() < 1e-6) l.fail("facing_mm", "a point away from centre_mm");
+      leaf.length = l.get<double>("length_mm", 100.0, {5.0, 1000.0}) * kMm;
+      leaf.width = l.get<double>("width_mm", 60.0, {5.0, 1000.0}) * kMm;
+      s.canopy.placed_leaves.push_back(leaf);
+    }
+  }
   s.canopy.leaves = c.get<int>("leaves", 0, {0, 5000});
   s.canopy.region = box_mm(c, s.canopy.region);
   s.canopy.leaf_length_min = c.get<double>("leaf_length_min_mm", 50.0, {5.0, 500.0}) * kMm;
@@ -131,6 +142,20 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.arm.max_linear_accel = a.get<double>("max_linear_accel", s.arm.max_linear_accel, {0.01, 50.0});
   s.arm.hand_camera_offset = vec3_mm(a, "hand_camera_offset_mm", s.arm.hand_camera_offset);
 
+  if (a.has("variants")) {
+    for (const auto& v : a.children("variants")) {
+      Variant var;
+      var.start_tool_position = vec3(v.numbers("start_tool_position_mm", 3), kMm);
+      var.start_look_at = vec3_mm(v, "start_look_at_mm", var.start_tool_position + Vec3(0, 1, 0));
+      for (double i : v.numbers("fruit", std::vector<double>{})) {
+        if (i < 0 || i >= static_cast<double>(s.fruit.size()) || i != std::floor(i))
+          v.fail("fruit", "indices of entries in the scenario's fruit list");
+        var.fruit.push_back(static_cast<int>(i));
+      }
+      s.variants.push_back(var);
+    }
+  }
+
   const auto g = root.child("gripper");
   s.gripper.close_time_s = g.get<double>("close_time_s", s.gripper.close_time_s, {0.01, 10.0});
   s.gripper.open_time_s = g.get<double>("open_time_s", s.gripper.open_time_s, {0.01, 10.0});
@@ -155,6 +180,19 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.faults.camera_dropout_start_s = f.get<double>("camera_dropout_start_s", -1.0);
   s.faults.camera_dropout_duration_s = f.get<double>("camera_dropout_duration_s", 0.0, {0.0, 3600.0});
   s.faults.ir_stuck_start_s = f.get<double>("ir_stuck_start_s", -1.0);
+  return s;
+}
+
+Scenario Scenario::for_run(int run) const {
+  if (variants.empty()) return *this;
+  Scenario s = *this;
+  const Variant& v = variants[static_cast<std::size_t>(run) % variants.size()];
+  s.arm.start_tool_position = v.start_tool_position;
+  s.arm.start_look_at = v.start_look_at;
+  if (!v.fruit.empty()) {
+    s.fruit.clear();
+    for (int i : v.fruit) s.fruit.push_back(fruit[static_cast<std::size_t>(i)]);
+  }
   return s;
 }
 

@@ -55,7 +55,15 @@ struct RandomFruit {
   double min_separation = 0.09;   // centre to centre [m]
 };
 
+// A leaf put exactly where the scenario wants it (e.g. to hide one fruit
+// from the fixed camera); its blade faces `facing`.
+struct PlacedLeaf {
+  Vec3 centre, facing;
+  double length = 0.1, width = 0.06;  // [m]
+};
+
 struct Canopy {
+  std::vector<PlacedLeaf> placed_leaves;
   int leaves = 0;
   Box region;                     // where leaf centres are drawn [m]
   double leaf_length_min = 0.05, leaf_length_max = 0.09;  // [m]
@@ -88,6 +96,14 @@ struct ArmSetup {
   double max_angular_speed = 1.0;        // [rad/s]
   double max_linear_accel = 1.5;         // [m/s^2]
   Vec3 hand_camera_offset = Vec3::Zero();  // in the tool frame [m]
+};
+
+// One run's variation of a scenario (thesis experiments II and III change
+// the start pose, or the start pose and the fruit, between runs).
+struct Variant {
+  Vec3 start_tool_position = Vec3::Zero();
+  Vec3 start_look_at = Vec3::Zero();
+  std::vector<int> fruit;  // indices into Scenario::fruit present in this run; empty: all
 };
 
 struct GripperSetup {
@@ -132,11 +148,15 @@ struct Scenario {
   CameraSetup fixed_camera, hand_camera;
   Placement fixed_camera_truth;        // true extrinsic (the software has its own)
   ArmSetup arm;
+  std::vector<Variant> variants;  // run k uses variants[k % size], if any
   GripperSetup gripper;
   IrSetup ir;
   Faults faults;
 
   static Scenario from_config(const config::Node& node);
+
+  // The scenario as run number `run` sees it (its variant applied).
+  Scenario for_run(int run) const;
 };
 
 // Loads a scenario file and rejects unknown keys. Throws config::Error.

@@ -106,6 +106,18 @@ void Scene::grow_branches(const Scenario& s, std::mt19937_64& rng) {
 
 void Scene::grow_leaves(const Scenario& s, std::mt19937_64& rng) {
   const auto& c = s.canopy;
+  for (const auto& p : c.placed_leaves) {
+    Leaf leaf;
+    leaf.centre = p.centre;
+    leaf.normal = (p.facing - p.centre).normalized();
+    const Vec3 any = std::abs(leaf.normal.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+    leaf.u = leaf.normal.cross(any).normalized();
+    leaf.v = leaf.normal.cross(leaf.u);
+    leaf.half_length = 0.5 * p.length;
+    leaf.half_width = 0.5 * p.width;
+    leaf.albedo_rgb = Vec3(c.leaf_colours_rgb[0][0], c.leaf_colours_rgb[0][1], c.leaf_colours_rgb[0][2]);
+    leaves_.push_back(leaf);
+  }
   const auto& greens = c.leaf_colours_rgb;
   for (int i = 0; i < c.leaves; ++i) {
     for (int attempt = 0; attempt < 50; ++attempt) {

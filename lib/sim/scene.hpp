@@ -14,10 +14,10 @@ enum class FruitState : int8_t { kOnTree = 0, kHeld = 1, kPicked = 2, kKnocked =
 
 struct Fruit {
   int id = 0;
-  Vec3 stem_position;         // rest position on the tree [m]
-  Vec3 position;              // current centre [m]
+  Vec3 stem_position = Vec3::Zero();  // rest position on the tree [m]
+  Vec3 position = Vec3::Zero();       // current centre [m]
   double radius = 0.0;        // [m]
-  Vec3 albedo_rgb;            // peel colour at full light, 0..255
+  Vec3 albedo_rgb = Vec3::Zero();     // peel colour at full light, 0..255
   Vec3 sway_direction = Vec3::UnitX();
   double sway_phase = 0.0;
   FruitState state = FruitState::kOnTree;
@@ -30,16 +30,16 @@ struct Fruit {
 // A leaf: a flat lens-shaped blade. A point q in its plane is inside when
 // |q.v| <= half_width * (1 - (q.u / half_length)^2).
 struct Leaf {
-  Vec3 centre;
-  Vec3 normal, u, v;  // orthonormal: blade normal, midrib, across
+  Vec3 centre = Vec3::Zero();
+  Vec3 normal = Vec3::UnitZ(), u = Vec3::UnitX(), v = Vec3::UnitY();  // orthonormal: blade normal, midrib, across
   double half_length = 0.0, half_width = 0.0;
-  Vec3 albedo_rgb;
+  Vec3 albedo_rgb = Vec3::Zero();
 };
 
 // Branches are chains of overlapping spheres ("beads"), which keeps the
 // renderer to two primitive types.
 struct Bead {
-  Vec3 centre;
+  Vec3 centre = Vec3::Zero();
   double radius = 0.0;
 };
 
@@ -53,6 +53,8 @@ class Scene {
   const std::vector<Leaf>& leaves() const { return leaves_; }
   const std::vector<Bead>& beads() const { return beads_; }
   const Lighting& lighting() const { return lighting_; }
+  // Places one more leaf (tests, hand-made scenes).
+  void add_leaf(const Leaf& leaf) { leaves_.push_back(leaf); }
 
   // Moves fruit still on the tree with the wind at simulation time t [s].
   void apply_wind(double t);

@@ -30,7 +30,7 @@ struct SimConfig {
   std::string hardware = "direct";  // only "direct" so far (see docs/simulator.md)
   double physics_rate_hz = 100.0;
   double robot_state_rate_hz = 100.0;
-  double truth_rate_hz = 5.0;
+  double truth_rate_hz = 20.0;
   bool stop_when_done = true;  // end the process when the run is over
   double done_grace_s = 2.0;   // keep running this long after the last fruit is decided
 

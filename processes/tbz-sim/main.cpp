@@ -51,8 +51,10 @@ int main(int argc, char** argv) {
     }
     if (!plots_dir.empty()) {
       std::filesystem::create_directories(plots_dir);
-      const std::string cmd = "python3 '" HARVEST_TOOLS_DIR "/plot_tbz.py' --csv '" + out_dir + "' --out '" +
-                              plots_dir + "'";
+      // The Debian interpreter has python3-matplotlib; HARVEST_PYTHON overrides it.
+      const char* py = std::getenv("HARVEST_PYTHON");
+      const std::string cmd = std::string(py ? py : "/usr/bin/python3") + " '" HARVEST_TOOLS_DIR "/plot_tbz.py' --csv '" +
+                              out_dir + "' --out '" + plots_dir + "'";
       if (std::system(cmd.c_str()) != 0) {
         std::cerr << "error: plotting failed: " << cmd << '\n';
         std::cout << result.summary.json() << std::endl;

@@ -1,0 +1,289 @@
+#include "sim/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "harvest/harvest_status_t.hpp"
+#include "harvest/sim_truth_t.hpp"
+#include "harvest/targets_t.hpp"
+#include "runtime/channels.hpp"
+#include "sim/sim_node.hpp"
+
+namespace harvest::sim {
+namespace {
+
+constexpr double kMatchRadius = 0.15;  // a report within this of a true fruit is about that fruit [m]
+
+Vec3 vec(const double a[3]) { return Vec3(a[0], a[1], a[2]); }
+
+Placement placement(const pose_t& p) {
+  const Eigen::Quaterniond q(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
+  return {q.normalized().toRotationMatrix(), vec(p.position)};
+}
+
+const char* outcome_name(int8_t state) {
+  switch (state) {
+    case sim_fruit_truth_t::ON_TREE: return "on tree";
+    case sim_fruit_truth_t::HELD: return "held";
+    case sim_fruit_truth_t::PICKED: return "picked";
+    case sim_fruit_truth_t::KNOCKED: return "knocked off";
+  }
+  return "unknown";
+}
+
+// Index of the true fruit nearest p within kMatchRadius, -1 if none.
+int nearest_fruit(const sim_truth_t& truth, const Vec3& p) {
+  int best = -1;
+  double best_d = kMatchRadius;
+  for (std::size_t i = 0; i < truth.fruits.size(); ++i) {
+    const double d = (vec(truth.fruits[i].position_base) - p).norm();
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+std::vector<DepthBin> bin(std::vector<std::pair<double, double>> samples) {
+  std::vector<DepthBin> bins;
+  if (samples.empty()) return bins;
+  std::sort(samples.begin(), samples.end());
+  constexpr double kWidth = 0.1;
+  std::map<int, std::vector<double>> by_bin;
+  for (const auto& [depth, error] : samples) by_bin[static_cast<int>(std::floor(depth / kWidth))].push_back(error);
+  for (const auto& [k, errors] : by_bin) {
+    DepthBin b;
+    b.from_m = k * kWidth;
+    b.to_m = (k + 1) * kWidth;
+    b.samples = static_cast<int>(errors.size());
+    double sum = 0, sum2 = 0;
+    for (double e : errors) {
+      sum += e;
+      sum2 += e * e;
+    }
+    b.mean_error_m = sum / b.samples;
+    b.rms_error_m = std::sqrt(sum2 / b.samples);
+    bins.push_back(b);
+  }
+  return bins;
+}
+
+std::string number(double v, int decimals = 3) {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) >= 0x20) out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenario, int run, Evaluation& e) {
+  std::vector<sim_truth_t> truths;
+  std::optional<harvest_status_t> last_status;
+  std::vector<targets_t> targets;
+  for (const auto& rec : log) {
+    if (rec.channel == kSimTruthChannel) {
+      if (auto m = rt::decode<sim_truth_t>(rec.data)) truths.push_back(std::move(*m));
+    } else if (rec.channel == channels::kHarvestStatus) {
+      if (auto m = rt::decode<harvest_status_t>(rec.data)) last_status = std::move(*m);
+    } else if (rec.channel == channels::kTargets) {
+      if (auto m = rt::decode<targets_t>(rec.data)) targets.push_back(std::move(*m));
+    }
+  }
+  if (truths.empty()) throw std::runtime_error("run " + std::to_string(run) + ": the log has no SIM_TRUTH messages");
+  if (!last_status) e.warnings.push_back("run " + std::to_string(run) + ": no HARVEST_STATUS in the log");
+  const sim_truth_t& first = truths.front();
+  const sim_truth_t& last = truths.back();
+  if (e.scenario.empty()) e.scenario = last.scenario;
+  e.runs += 1;
+  e.sim_duration_s += (last.header.utime - first.header.utime) * 1e-6;
+
+  std::vector<FruitResult> results;
+  for (const auto& f : last.fruits) {
+    FruitResult r;
+    r.run = run;
+    r.sim_id = f.sim_id;
+    r.reachable = f.reachable;
+    r.visible_fraction = f.visible_fraction_fixed;
+    r.counted = f.reachable && f.visible_fraction_fixed >= 0.5f;
+    r.outcome = outcome_name(f.state);
+    r.true_position = vec(first.fruits[static_cast<std::size_t>(f.sim_id)].position_base);
+    if (f.grasp_attempts > 0) {
+      r.final_offset = vec(f.grasp_offset_base);
+      r.final_tool = r.true_position - *r.final_offset;
+    }
+    results.push_back(r);
+  }
+  // Cycle times: the controller's own, matched by where the tool was when it
+  // decided; otherwise the time since the previous decision (or the start).
+  if (last_status) {
+    for (const auto& o : last_status->outcomes) {
+      const int i = nearest_fruit(first, vec(o.final_tool_position));
+      if (i < 0) continue;
+      results[static_cast<std::size_t>(i)].controller_fruit_id = o.fruit_id;
+      if (o.outcome == fruit_outcome_t::PICKED) results[static_cast<std::size_t>(i)].cycle_time_s = o.cycle_time_s;
+    }
+  }
+  std::vector<std::pair<int64_t, std::size_t>> decided;
+  for (std::size_t i = 0; i < last.fruits.size(); ++i)
+    if (last.fruits[i].outcome_utime > 0) decided.emplace_back(last.fruits[i].outcome_utime, i);
+  std::sort(decided.begin(), decided.end());
+  int64_t previous = first.header.utime;
+  for (const auto& [t, i] : decided) {
+    if (!results[i].cycle_time_s && results[i].outcome == "picked") results[i].cycle_time_s = (t - previous) * 1e-6;
+    previous = t;
+  }
+  e.fruit.insert(e.fruit.end(), results.begin(), results.end());
+
+  // Depth estimates against the truth at the image time.
+  const Mat3 fixed_rt = scenario.fixed_camera_truth.rotation.transpose();
+  std::size_t k = 0;
+  for (const auto& m : targets) {
+    while (k + 1 < truths.size() && truths[k + 1].header.utime <= m.header.utime) ++k;
+    const bool fixed = m.source_camera == "fixed";
+    const Placement hand = placement(truths[k].hand_camera_pose);
+    for (const auto& t : m.targets) {
+      const int i = nearest_fruit(truths[k], vec(t.position_base));
+      if (i < 0) continue;
+      const Vec3 p = vec(truths[k].fruits[static_cast<std::size_t>(i)].position_base);
+      const double true_depth = fixed ? (fixed_rt * (p - scenario.fixed_camera_truth.position)).z()
+                                      : (hand.rotation.transpose() * (p - hand.position)).z();
+      (fixed ? e.depth_samples_fixed : e.depth_samples_hand).emplace_back(true_depth, t.depth_m - true_depth);
+    }
+  }
+}
+
+void finish(Evaluation& e) {
+  e.fruit_total = static_cast<int>(e.fruit.size());
+  e.reachable = e.picked = e.picked_any = 0;
+  std::vector<double> cycles, errors;
+  std::vector<Vec3> tools;
+  for (const auto& f : e.fruit) {
+    const bool picked = f.outcome == "picked";
+    e.picked_any += picked;
+    if (!f.counted) continue;
+    ++e.reachable;
+    if (!picked) continue;
+    ++e.picked;
+    if (f.cycle_time_s) cycles.push_back(*f.cycle_time_s);
+    if (f.final_offset) errors.push_back(f.final_offset->norm() * 1e3);
+    if (f.final_tool) tools.push_back(*f.final_tool * 1e3);
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x;
+    return v.empty() ? std::nan("") : s / static_cast<double>(v.size());
+  };
+  auto max = [](const std::vector<double>& v) { return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end()); };
+  e.success_rate = e.reachable > 0 ? static_cast<double>(e.picked) / e.reachable : 0.0;
+  e.mean_cycle_s = mean(cycles);
+  e.max_cycle_s = max(cycles);
+  e.mean_error_mm = mean(errors);
+  e.max_error_mm = max(errors);
+  for (int a = 0; a < 3; ++a) {
+    if (tools.size() < 2) {
+      e.final_tool_std_mm[static_cast<std::size_t>(a)] = std::nan("");
+      continue;
+    }
+    double m = 0, s2 = 0;
+    for (const auto& t : tools) m += t[a];
+    m /= static_cast<double>(tools.size());
+    for (const auto& t : tools) s2 += (t[a] - m) * (t[a] - m);
+    e.final_tool_std_mm[static_cast<std::size_t>(a)] = std::sqrt(s2 / static_cast<double>(tools.size() - 1));
+  }
+  e.depth_fixed = bin(e.depth_samples_fixed);
+  e.depth_hand = bin(e.depth_samples_hand);
+}
+
+std::string to_json(const Evaluation& e) {
+  std::ostringstream o;
+  o << "{\n  \"scenario\": " << quoted(e.scenario) << ",\n  \"runs\": " << e.runs
+    << ",\n  \"fruit_total\": " << e.fruit_total << ",\n  \"reachable\": " << e.reachable
+    << ",\n  \"picked\": " << e.picked << ",\n  \"success_rate\": " << number(e.success_rate, 4)
+    << ",\n  \"mean_cycle_time_s\": " << number(e.mean_cycle_s) << ",\n  \"max_cycle_time_s\": " << number(e.max_cycle_s)
+    << ",\n  \"mean_final_error_mm\": " << number(e.mean_error_mm, 2)
+    << ",\n  \"max_final_error_mm\": " << number(e.max_error_mm, 2) << ",\n  \"final_position_std_mm\": ["
+    << number(e.final_tool_std_mm[0], 2) << ", " << number(e.final_tool_std_mm[1], 2) << ", "
+    << number(e.final_tool_std_mm[2], 2) << "],\n  \"simulated_time_s\": " << number(e.sim_duration_s, 1)
+    << ",\n  \"fruit\": [";
+  for (std::size_t i = 0; i < e.fruit.size(); ++i) {
+    const auto& f = e.fruit[i];
+    o << (i ? "," : "") << "\n    {\"run\": " << f.run << ", \"sim_id\": " << f.sim_id
+      << ", \"controller_fruit_id\": " << f.controller_fruit_id << ", \"counted\": " << (f.counted ? "true" : "false")
+      << ", \"reachable\": " << (f.reachable ? "true" : "false")
+      << ", \"visible_fraction\": " << number(f.visible_fraction, 2) << ", \"outcome\": " << quoted(f.outcome)
+      << ", \"cycle_time_s\": " << (f.cycle_time_s ? number(*f.cycle_time_s) : "null")
+      << ", \"final_error_mm\": " << (f.final_offset ? number(f.final_offset->norm() * 1e3, 2) : "null")
+      << ", \"true_position_mm\": [" << number(f.true_position.x() * 1e3, 1) << ", "
+      << number(f.true_position.y() * 1e3, 1) << ", " << number(f.true_position.z() * 1e3, 1) << "]}";
+  }
+  o << "\n  ],\n";
+  auto bins = [&](const char* key, const std::vector<DepthBin>& v) {
+    o << "  \"" << key << "\": [";
+    for (std::size_t i = 0; i < v.size(); ++i)
+      o << (i ? ", " : "") << "{\"from_m\": " << number(v[i].from_m, 2) << ", \"to_m\": " << number(v[i].to_m, 2)
+        << ", \"samples\": " << v[i].samples << ", \"mean_error_mm\": " << number(v[i].mean_error_m * 1e3, 1)
+        << ", \"rms_error_mm\": " << number(v[i].rms_error_m * 1e3, 1) << "}";
+    o << "]";
+  };
+  bins("depth_error_fixed", e.depth_fixed);
+  o << ",\n";
+  bins("depth_error_hand", e.depth_hand);
+  o << ",\n  \"warnings\": [";
+  for (std::size_t i = 0; i < e.warnings.size(); ++i) o << (i ? ", " : "") << quoted(e.warnings[i]);
+  o << "]\n}\n";
+  return o.str();
+}
+
+std::string to_table(const Evaluation& e) {
+  std::ostringstream o;
+  char line[256];
+  std::snprintf(line, sizeof line, "%-4s %-6s %-8s %-12s %-9s %-10s %-14s\n", "run", "fruit", "counted", "outcome",
+                "cycle s", "error mm", "visible");
+  o << line;
+  for (const auto& f : e.fruit) {
+    std::snprintf(line, sizeof line, "%-4d %-6d %-8s %-12s %-9s %-10s %-14s\n", f.run, f.sim_id,
+                  f.counted ? "yes" : (f.reachable ? "hidden" : "far"), f.outcome.c_str(),
+                  f.cycle_time_s ? number(*f.cycle_time_s, 2).c_str() : "-",
+                  f.final_offset ? number(f.final_offset->norm() * 1e3, 1).c_str() : "-",
+                  number(f.visible_fraction, 2).c_str());
+    o << line;
+  }
+  std::snprintf(line, sizeof line,
+                "\n%s: %d run(s), %d of %d counted fruit picked (%.0f %%), %d picked in all; cycle mean %s s max %s s; "
+                "final error mean %s mm max %s mm; final position std x/y/z %s/%s/%s mm\n",
+                e.scenario.c_str(), e.runs, e.picked, e.reachable, 100.0 * e.success_rate, e.picked_any,
+                number(e.mean_cycle_s, 2).c_str(), number(e.max_cycle_s, 2).c_str(), number(e.mean_error_mm, 1).c_str(),
+                number(e.max_error_mm, 1).c_str(), number(e.final_tool_std_mm[0], 1).c_str(),
+                number(e.final_tool_std_mm[1], 1).c_str(), number(e.final_tool_std_mm[2], 1).c_str());
+  o << line;
+  auto bins = [&](const char* name, const std::vector<DepthBin>& v) {
+    if (v.empty()) return;
+    o << "depth error, " << name << " camera (true depth bin: samples, mean, rms mm):\n";
+    for (const auto& b : v) {
+      std::snprintf(line, sizeof line, "  %4.0f-%4.0f mm: %5d  %7.1f  %7.1f\n", b.from_m * 1e3, b.to_m * 1e3, b.samples,
+                    b.mean_error_m * 1e3, b.rms_error_m * 1e3);
+      o << line;
+    }
+  };
+  bins("fixed", e.depth_fixed);
+  bins("hand", e.depth_hand);
+  for (const auto& w : e.warnings) o << "warning: " << w << "\n";
+  return o.str();
+}
+
+}  // namespace harvest::sim

@@ -1,0 +1,108 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "sim/scenario.hpp"
+#include "sim/scene.hpp"
+
+namespace harvest::sim {
+namespace {
+
+TEST(Scenario, EveryShippedScenarioLoads) {
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator("config/scenarios")) {
+    if (e.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(e.path().string());
+    const Scenario s = load_scenario(e.path().string());
+    EXPECT_FALSE(s.name.empty());
+    const Scene scene(s);
+    EXPECT_GE(scene.fruit().size(), 1u);
+    ++n;
+  }
+  EXPECT_GE(n, 1);
+}
+
+TEST(Scenario, ReadsMillimetresAsMetres) {
+  const auto doc = config::Document::load_string(
+      "name: t\nfruit:\n  - {position_mm: [100, 1000, -200], diameter_mm: 70}\narm: {start_tool_position_mm: [0, 500, 0]}\n");
+  const Scenario s = Scenario::from_config(doc.root());
+  doc.check_unused();
+  ASSERT_EQ(s.fruit.size(), 1u);
+  EXPECT_NEAR(s.fruit[0].position.y(), 1.0, 1e-12);
+  EXPECT_NEAR(s.fruit[0].diameter, 0.070, 1e-12);
+  EXPECT_NEAR(s.arm.start_tool_position.y(), 0.5, 1e-12);
+}
+
+TEST(Scenario, RejectsUnknownKeysAndBadValues) {
+  {
+    const auto doc = config::Document::load_string("name: t\nfruit_sise: {mean_mm: 70}\n");
+    Scenario::from_config(doc.root());
+    EXPECT_THROW(doc.check_unused(), config::Error);
+  }
+  const auto expect_error = [](const std::string& yaml, const std::string& needle) {
+    const auto doc = config::Document::load_string(yaml);
+    try {
+      Scenario::from_config(doc.root());
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const config::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_error("description: no name\n", "name");
+  expect_error("name: t\nfruit_size: {min_mm: 80, max_mm: 70}\n", "max_mm");
+  expect_error("name: t\ncameras: {fixed_extrinsic_truth: {rotation: [1, 0, 0, 0, 2, 0, 0, 0, 1]}}\n", "rotation");
+  expect_error("name: t\nfruit:\n  - {position_mm: [1, 2]}\n", "position_mm");
+}
+
+TEST(Scene, RandomTreeIsSeededAndRespectsTheSizeDistribution) {
+  Scenario s;
+  s.seed = 7;
+  s.random_fruit.count = 40;
+  s.random_fruit.region = {Vec3(-0.5, 0.9, -0.8), Vec3(0.3, 1.3, 0.2)};
+  s.canopy.leaves = 200;
+  s.canopy.region = s.random_fruit.region;
+  const Scene a(s), b(s);
+  ASSERT_EQ(a.fruit().size(), 40u);
+  ASSERT_EQ(a.leaves().size(), b.leaves().size());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.fruit().size(); ++i) {
+    EXPECT_EQ(a.fruit()[i].position, b.fruit()[i].position);
+    const double d = 2.0 * a.fruit()[i].radius;
+    EXPECT_GE(d, s.fruit_size.min);
+    EXPECT_LE(d, s.fruit_size.max);
+    sum += d;
+    for (std::size_t j = 0; j < i; ++j)
+      EXPECT_GE((a.fruit()[i].position - a.fruit()[j].position).norm(), s.random_fruit.min_separation);
+  }
+  EXPECT_NEAR(sum / 40.0, s.fruit_size.mean, 0.0015);
+  s.seed = 8;
+  EXPECT_NE(Scene(s).fruit()[0].position, a.fruit()[0].position);
+}
+
+TEST(Scene, WindSwaysOnlyFruitOnTheTree) {
+  Scenario s;
+  s.fruit = {{Vec3(0, 1, 0), 0.07}, {Vec3(0.2, 1, 0), 0.07}};
+  s.wind.amplitude = 0.02;
+  s.wind.frequency_hz = 1.0;
+  Scene scene(s);
+  scene.fruit()[1].state = FruitState::kHeld;
+  double max_offset = 0.0;
+  for (int k = 0; k < 100; ++k) {
+    scene.apply_wind(k * 0.01);
+    max_offset = std::max(max_offset, (scene.fruit()[0].position - scene.fruit()[0].stem_position).norm());
+    EXPECT_LE((scene.fruit()[0].position - scene.fruit()[0].stem_position).norm(), 0.02 + 1e-12);
+  }
+  EXPECT_GT(max_offset, 0.015);
+  EXPECT_EQ(scene.fruit()[1].position, scene.fruit()[1].stem_position);
+}
+
+TEST(Scene, LookAtPointsToolZAtTheTarget) {
+  const Vec3 from(-0.655, 0.785, -0.251), to(-0.2286, 1.0668, -0.5402);
+  const Mat3 r = look_at_rotation(from, to);
+  EXPECT_TRUE((r * r.transpose()).isApprox(Mat3::Identity(), 1e-12));
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+  EXPECT_TRUE(r.col(2).isApprox((to - from).normalized(), 1e-12));
+}
+
+}  // namespace
+}  // namespace harvest::sim
