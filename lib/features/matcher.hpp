@@ -1,0 +1,79 @@
+// Correspondences between the desired image (the zoomed fixed-camera image,
+// teach by zooming, thesis chapter 5) and the current camera-in-hand image.
+//
+// 1. ORB keypoints and binary descriptors in both images (OpenCV
+//    features2d), nearest-neighbour matching with Lowe's ratio test and a
+//    mutual-best check.
+// 2. Geometric verification: our RANSAC homography (lib/geometry) from the
+//    desired to the current image; the target is planar (a sticker, a
+//    patch of fruit), so consistent matches obey one homography.
+// 3. Optional sub-pixel refinement: the current image is warped into the
+//    desired image with the homography, the desired inliers are tracked into
+//    it with our pyramidal Lucas-Kanade, mapped back, and the homography is
+//    refitted.
+// Fewer than four consistent matches is an explicit status (kTooFew): it is
+// what the thesis found on natural, untextured fruit.
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <string>
+#include <vector>
+
+#include "features/lucas_kanade.hpp"
+
+namespace harvest::features {
+
+struct MatcherParams {
+  int orb_features = 1000;  // keypoints per image
+  int orb_levels = 8;       // ORB scale pyramid
+  double orb_scale = 1.2;
+  int fast_threshold = 10;
+  double ratio = 0.8;  // Lowe ratio test
+  bool mutual = true;  // keep only mutual best matches
+  double ransac_threshold_px = 3.0;
+  int ransac_iterations = 2000;
+  uint64_t seed = 1;    // RANSAC seed (deterministic replay)
+  int min_inliers = 4;  // below: kTooFew (never less than 4)
+  bool refine = true;   // sub-pixel refinement with Lucas-Kanade
+  LkParams refine_lk{15, 1, 20, 0.01, 1e-3};
+  double refine_max_shift_px = 2.0;  // a refined point moving more than this is dropped
+};
+
+enum class MatchStatus : int8_t { kOk = 0, kTooFew = 1, kNoDesired = 2, kDegenerate = 3 };
+const char* to_string(MatchStatus s);
+
+struct MatchResult {
+  MatchStatus status = MatchStatus::kNoDesired;
+  std::string text;
+  // The first num_inliers pairs passed geometric verification; the rest are
+  // descriptor matches it rejected (kept for diagnosis).
+  std::vector<cv::Point2f> desired, current;
+  int num_inliers = 0;
+  int num_candidates = 0;              // descriptor matches before verification
+  cv::Matx33d G = cv::Matx33d::eye();  // desired -> current, valid when status is kOk
+  double rms_px = 0;
+  bool ok() const { return status == MatchStatus::kOk; }
+};
+
+class DesiredImageMatcher {
+ public:
+  explicit DesiredImageMatcher(MatcherParams params);
+  // The desired image; `region` (empty = whole image) limits its keypoints.
+  void set_desired(const cv::Mat1b& gray, const cv::Rect& region = {});
+  bool has_desired() const { return !desired_.empty(); }
+  int desired_keypoints() const { return static_cast<int>(desired_kp_.size()); }
+  MatchResult match(const cv::Mat1b& current, const cv::Rect& region = {}) const;
+  const MatcherParams& params() const { return params_; }
+
+ private:
+  MatcherParams params_;
+  cv::Ptr<cv::ORB> orb_;
+  cv::Mat1b desired_;
+  Pyramid desired_pyr_;
+  std::vector<cv::KeyPoint> desired_kp_;
+  cv::Mat desired_desc_;
+};
+
+}  // namespace harvest::features

@@ -1,0 +1,118 @@
+// Desired (zoomed) image <-> camera-in-hand image: ORB, ratio test, our
+// RANSAC homography, Lucas-Kanade refinement; explicit status when it fails.
+#include <gtest/gtest.h>
+
+#include "features/matcher.hpp"
+#include "synthetic.hpp"
+
+namespace f = harvest::features;
+namespace ft = harvest::features::testing;
+
+namespace {
+
+// Texture (side x side) placed in a 320x240 image by a similarity and a
+// little perspective.
+cv::Matx33d placement(double scale, double angle, double tx, double ty, double px = 0, double py = 0) {
+  const double c = std::cos(angle) * scale, s = std::sin(angle) * scale;
+  return cv::Matx33d(c, -s, tx, s, c, ty, px, py, 1);
+}
+
+double transfer_rms(const cv::Matx33d& G, const cv::Matx33d& truth, cv::Size size) {
+  double sum = 0;
+  int n = 0;
+  for (int y = 20; y < size.height; y += 40)
+    for (int x = 20; x < size.width; x += 40) {
+      const cv::Vec3d a = G * cv::Vec3d(x, y, 1), b = truth * cv::Vec3d(x, y, 1);
+      sum += std::pow(a[0] / a[2] - b[0] / b[2], 2) + std::pow(a[1] / a[2] - b[1] / b[2], 2);
+      ++n;
+    }
+  return std::sqrt(sum / n);
+}
+
+}  // namespace
+
+TEST(Matcher, RecoversTheHomographyBetweenDesiredAndCurrent) {
+  const cv::Mat1b tex = ft::sticker_texture(400, 3);
+  const cv::Size size(320, 240);
+  const cv::Matx33d Hd = placement(0.55, 0.0, 50, 10);
+  const cv::Mat1b desired = ft::render_plane(tex, Hd, size, 90, 1.5, 1);
+  f::DesiredImageMatcher m({});
+  EXPECT_FALSE(m.has_desired());
+  EXPECT_EQ(m.match(desired).status, f::MatchStatus::kNoDesired);
+  m.set_desired(desired);
+  ASSERT_TRUE(m.has_desired());
+
+  struct Case {
+    cv::Matx33d Hc;
+    const char* what;
+  };
+  const std::vector<Case> cases{{placement(0.55, 0.0, 53.3, 7.6), "shift"},
+                                {placement(0.5, 0.25, 80, 0), "rotation + scale"},
+                                {placement(0.62, -0.15, 40, 20, 2e-4, -1e-4), "perspective"}};
+  for (const auto& c : cases) {
+    const cv::Mat1b current = ft::render_plane(tex, c.Hc, size, 90, 1.5, 2);
+    const cv::Matx33d truth = c.Hc * Hd.inv();  // desired px -> current px
+    for (bool refine : {false, true}) {
+      f::MatcherParams p;
+      p.refine = refine;
+      f::DesiredImageMatcher mm(p);
+      mm.set_desired(desired);
+      const auto r = mm.match(current);
+      ASSERT_TRUE(r.ok()) << c.what << ": " << r.text;
+      ASSERT_GE(r.num_inliers, 20) << c.what;
+      ASSERT_EQ(r.desired.size(), r.current.size());
+      double worst = 0;
+      for (int i = 0; i < r.num_inliers; ++i) {
+        const cv::Vec3d q = truth * cv::Vec3d(r.desired[i].x, r.desired[i].y, 1);
+        worst = std::max(worst, std::hypot(q[0] / q[2] - r.current[i].x, q[1] / q[2] - r.current[i].y));
+      }
+      const double rms = transfer_rms(r.G, truth, size);
+      std::printf(
+          "%-16s refine %d: %d inliers of %d candidates, homography transfer rms %.3f px, worst inlier %.2f px\n",
+          c.what, refine, r.num_inliers, r.num_candidates, rms, worst);
+      EXPECT_LT(rms, refine ? 0.3 : 1.5) << c.what;
+      EXPECT_LT(worst, refine ? 1.0 : 4.0) << c.what;
+    }
+  }
+}
+
+TEST(Matcher, UntexturedFruitGivesTooFew) {
+  // The thesis's finding: a smooth orange has no four matching features.
+  const cv::Size size(320, 240);
+  auto fruit = [&](cv::Point c, int r) {
+    cv::Mat1b img(size, uint8_t(60));
+    for (int k = r; k > 0; --k)  // smooth shading, no corners
+      cv::circle(img, c, k, cv::Scalar(200 - 80.0 * k / r), cv::FILLED, cv::LINE_AA);
+    return img;
+  };
+  f::DesiredImageMatcher m({});
+  m.set_desired(fruit({160, 120}, 80));
+  const auto r = m.match(fruit({150, 125}, 70));
+  EXPECT_EQ(r.status, f::MatchStatus::kTooFew) << r.text;
+  EXPECT_EQ(r.num_inliers, 0);
+  EXPECT_FALSE(r.text.empty());
+  std::printf("untextured fruit: %s\n", r.text.c_str());
+}
+
+TEST(Matcher, UnrelatedImagesAreNotMatched) {
+  const cv::Size size(320, 240);
+  f::DesiredImageMatcher m({});
+  m.set_desired(ft::render_plane(ft::sticker_texture(400, 5), placement(0.6, 0, 30, 0), size));
+  const auto r = m.match(ft::render_plane(ft::sticker_texture(400, 6), placement(0.6, 0, 30, 0), size));
+  std::printf("unrelated: %s\n", r.text.c_str());
+  // Either too few, or a handful of chance matches at most.
+  EXPECT_TRUE(r.status != f::MatchStatus::kOk || r.num_inliers < 12) << r.text;
+}
+
+TEST(Matcher, DeterministicForTheSameInput) {
+  const cv::Mat1b tex = ft::sticker_texture(400, 8);
+  const cv::Size size(320, 240);
+  f::DesiredImageMatcher m({});
+  m.set_desired(ft::render_plane(tex, placement(0.55, 0, 50, 10), size));
+  const cv::Mat1b cur = ft::render_plane(tex, placement(0.5, 0.2, 70, 5), size, 90, 2.0, 3);
+  const auto a = m.match(cur), b = m.match(cur);
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a.num_inliers, b.num_inliers);
+  EXPECT_EQ(a.current, b.current);
+  EXPECT_EQ(cv::norm(cv::Mat(a.G), cv::Mat(b.G)), 0.0);
+}
