@@ -18,12 +18,12 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   if (c.heartbeat_timeout <= Micros{c.heartbeat_ms} * 1000)
     node.fail("heartbeat_timeout_ms", "a value greater than heartbeat_ms");
   // The drive list usually lives in its own file, shared with the simulated drives.
+  // No assignment between config::Node values here: a yaml-cpp node assigned
+  // to another overwrites the content of the node it refers to (the `can`
+  // mapping would become the drive file).
   std::optional<config::Document> drives_doc;
-  config::Node drives_node = node;
-  if (node.has("drives_file")) {
-    drives_doc = config::Document::load_file(node.file_path("drives_file"));
-    drives_node = drives_doc->root();
-  }
+  if (node.has("drives_file")) drives_doc = config::Document::load_file(node.file_path("drives_file"));
+  const config::Node drives_node = drives_doc ? drives_doc->root() : node;
   for (const auto& d : drives_node.children("drives")) {
     DriveConfig dc;
     dc.node_id = static_cast<uint8_t>(d.required<int>("node_id", {1, 127}));
@@ -43,7 +43,8 @@ Master::Master(can::CanBus& bus, MasterConfig config)
     : bus_(bus),
       config_(std::move(config)),
       sdo_([this](const CanFrame& f) { send(f); }, config_.sdo_timeout),
-      drives_(config_.drives.size()) {}
+      drives_(config_.drives.size()),
+      heartbeat_armed_(config_.drives.size(), false) {}
 
 void Master::send(const CanFrame& f) {
   try {
@@ -59,6 +60,7 @@ void Master::start(Micros now) {
   phase_ = MasterPhase::kConfiguring;
   started_ = now;
   configured_ = 0;
+  heartbeat_armed_.assign(drives_.size(), false);
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     send(nmt_frame(NmtCommand::kEnterPreOperational, config_.drives[i].node_id));
     drives_[i].last_heartbeat = now;
@@ -90,6 +92,10 @@ void Master::configure_next(std::size_t i, std::size_t step, Micros now) {
   const uint8_t node = config_.drives[i].node_id;
   const auto writes = default_drive_configuration(node, config_.heartbeat_ms);
   if (step == writes.size()) {
+    // Heartbeat supervision starts once the producer time is written (CiA 301:
+    // a consumer watches a node from its configuration on, not before).
+    drives_[i].last_heartbeat = now;
+    heartbeat_armed_[i] = true;
     send(nmt_frame(NmtCommand::kStart, node));
     if (++configured_ == drives_.size()) phase_ = MasterPhase::kRunning;
     return;
@@ -178,7 +184,7 @@ void Master::sync(Micros now) {
   sdo_.poll(now);
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     DriveStatus& d = drives_[i];
-    if (phase_ != MasterPhase::kIdle && now - d.last_heartbeat > config_.heartbeat_timeout)
+    if (heartbeat_armed_[i] && now - d.last_heartbeat > config_.heartbeat_timeout)
       latch(i, &DriveStatus::heartbeat_lost, "heartbeat lost");
     if (phase_ == MasterPhase::kRunning && sync_count_ > 0 &&
         now - (d.seen_pdo ? d.last_tpdo : started_) > config_.pdo_timeout)

@@ -106,6 +106,7 @@ class Master {
   MasterConfig config_;
   SdoClient sdo_;
   std::vector<DriveStatus> drives_;
+  std::vector<bool> heartbeat_armed_;  // per drive: configured, so its heartbeat is supervised
   MasterPhase phase_ = MasterPhase::kIdle;
   std::string error_;
   DriveGoal goal_ = DriveGoal::kDisabled;

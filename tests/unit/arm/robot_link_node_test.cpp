@@ -1,0 +1,563 @@
+// RobotLinkNode on a manual clock against simulated CiA 402 drives
+// (lib/simdrive) on the in-memory CAN bus: motion, limits, and every stop path
+// of the motion safety, observed through ROBOT_STATE and the drives' truth.
+#include <gtest/gtest.h>
+
+#include <harvest/emergency_stop_t.hpp>
+#include <harvest/operator_command_t.hpp>
+#include <harvest/robot_command_t.hpp>
+#include <harvest/robot_state_t.hpp>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+
+#include "arm/robot_link_node.hpp"
+#include "can/memory_bus.hpp"
+#include "runtime/channels.hpp"
+#include "runtime/dispatcher.hpp"
+#include "runtime/log_io.hpp"
+#include "simdrive/sim_drives_node.hpp"
+
+namespace harvest::arm {
+namespace {
+
+namespace ch = harvest::channels;
+using harvest::robot_state_t;
+
+constexpr rt::Micros kStart = 1'700'000'000'000'000;
+
+// A CanBus that forwards to an endpoint owned by a MemoryWire. It reports a
+// (never polled) descriptor so the node registers its reader with watch_fd,
+// which the rig calls whenever frames may be waiting, as the live runner does.
+class BusRef final : public can::CanBus {
+ public:
+  static constexpr int kFakeFd = 1000;
+  explicit BusRef(can::CanBus& bus) : bus_(bus) {}
+  void send(const can::CanFrame& f) override { bus_.send(f); }
+  std::optional<can::CanFrame> receive() override { return bus_.receive(); }
+  int fd() const override { return kFakeFd; }
+  void set_filters(const std::vector<can::CanFilter>& f) override { bus_.set_filters(f); }
+  can::BusState state() const override { return bus_.state(); }
+  std::string describe() const override { return bus_.describe(); }
+
+ private:
+  can::CanBus& bus_;
+};
+
+RobotLinkConfig default_config() {
+  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  RobotLinkConfig c = RobotLinkConfig::from_config(doc.root());
+  doc.check_unused();
+  return c;
+}
+
+// Robot link node + simulated drives, one shared manual clock: drives step
+// every 1 ms, the node's timers (SYNC every 10 ms) fire at their due times.
+class Rig final : public rt::Dispatcher {
+ public:
+  explicit Rig(RobotLinkConfig config) : rt::Dispatcher(""), model_(config.model) {
+    auto& link_end = wire_.attach();
+    auto& drive_end = wire_.attach();
+    auto drives_doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/drives_k1207i.yaml");
+    auto dc = simdrive::sim_drive_configs(model_, drives_doc.root(), 1.5, 3.0);
+    for (std::size_t i = 0; i < dc.size(); ++i) dc[i].initial_position = config.model.home[static_cast<Eigen::Index>(i)];
+    drives_ = std::make_unique<simdrive::SimDriveSet>(drive_end, dc);
+    node_ = std::make_unique<RobotLinkNode>(std::move(config), std::make_unique<BusRef>(link_end));
+    add(*node_);
+    attach_all();
+  }
+
+  rt::Micros now() const override { return now_; }
+  void publish_bytes(const std::string& channel, const void* data, std::size_t size) override {
+    const auto* p = static_cast<const uint8_t*>(data);
+    if (channel == ch::kRobotState) {
+      states_.push_back(*rt::decode<robot_state_t>(std::vector<uint8_t>(p, p + size)));
+      if (on_state_) on_state_(states_.back());
+    }
+  }
+  void watch_fd(int fd, std::function<void()> on_readable) override {
+    EXPECT_EQ(fd, BusRef::kFakeFd);
+    on_readable_ = std::move(on_readable);
+  }
+  void unwatch_fd(int) override {}
+  void request_stop(int) override {}
+
+  template <class Msg>
+  void inject(const std::string& channel, const Msg& msg) {
+    const auto bytes = rt::encode(msg);
+    deliver(channel, bytes.data(), bytes.size(), now_);
+  }
+
+  // Runs for `seconds` of simulated time; `each_ms` (if set) runs every millisecond first.
+  void run(double seconds, const std::function<void()>& each_ms = {}) {
+    const rt::Micros end = now_ + rt::from_seconds(seconds);
+    while (now_ < end) step(each_ms);
+  }
+  // Runs until pred() or `max_seconds`; returns pred().
+  bool run_until(const std::function<bool()>& pred, double max_seconds, const std::function<void()>& each_ms = {}) {
+    const rt::Micros end = now_ + rt::from_seconds(max_seconds);
+    while (!pred() && now_ < end) step(each_ms);
+    return pred();
+  }
+
+  bool enabled_and_idle() const {
+    return !states_.empty() && states_.back().mode == +robot_state_t::MODE_IDLE;
+  }
+  void start() { ASSERT_TRUE(run_until([this] { return enabled_and_idle(); }, 5.0)) << describe_last(); }
+
+  std::string describe_last() const {
+    if (states_.empty()) return "no ROBOT_STATE yet";
+    const auto& s = states_.back();
+    return "mode " + std::to_string(s.mode) + " flags " + std::to_string(s.fault_flags) + " text '" + s.fault_text + "'";
+  }
+
+  RobotLinkNode& node() { return *node_; }
+  simdrive::SimDriveSet& drives() { return *drives_; }
+  const kinematics::ArmModel& model() const { return model_; }
+  const std::vector<robot_state_t>& states() const { return states_; }
+  const robot_state_t& last() const { return states_.back(); }
+  void on_state(std::function<void(const robot_state_t&)> f) { on_state_ = std::move(f); }
+  double max_true_speed() const {
+    double m = 0.0;
+    for (std::size_t i = 0; i < drives_->size(); ++i) m = std::max(m, std::abs(drives_->drive(i).velocity()));
+    return m;
+  }
+
+ private:
+  void step(const std::function<void()>& each_ms) {
+    now_ += 1000;
+    drives_->advance(now_);
+    drives_->drain(now_);
+    if (on_readable_) on_readable_();
+    if (each_ms) each_ms();
+    timers_.fire_due(now_, [this](rt::Micros t) { now_ = t; });
+    drives_->drain(now_);
+    if (on_readable_) on_readable_();
+  }
+
+  kinematics::ArmModel model_;
+  can::MemoryWire wire_;
+  std::unique_ptr<simdrive::SimDriveSet> drives_;
+  std::unique_ptr<RobotLinkNode> node_;
+  rt::Micros now_ = kStart;
+  std::vector<robot_state_t> states_;
+  std::function<void(const robot_state_t&)> on_state_;
+  std::function<void()> on_readable_;
+};
+
+harvest::robot_command_t twist_command(double vx, double vy, double vz, double wx = 0, double wy = 0, double wz = 0) {
+  harvest::robot_command_t c{};
+  c.type = harvest::robot_command_t::TYPE_TWIST;
+  c.validity_us = 100'000;
+  c.twist.linear[0] = vx;
+  c.twist.linear[1] = vy;
+  c.twist.linear[2] = vz;
+  c.twist.angular[0] = wx;
+  c.twist.angular[1] = wy;
+  c.twist.angular[2] = wz;
+  return c;
+}
+
+// Sends `cmd` every 20 ms (the servo controller's rate).
+std::function<void()> every_20ms(Rig& rig, harvest::robot_command_t cmd) {
+  return [&rig, cmd, n = 0]() mutable {
+    if (n++ % 20 == 0) rig.inject(ch::kRobotCommand, cmd);
+  };
+}
+
+Eigen::Vector3d position(const harvest::pose_t& p) { return {p.position[0], p.position[1], p.position[2]}; }
+Eigen::Quaterniond orientation(const harvest::pose_t& p) {
+  return {p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]};
+}
+Eigen::VectorXd joints(const robot_state_t& s) {
+  return Eigen::Map<const Eigen::VectorXd>(s.joint_position.data(), s.num_joints);
+}
+
+harvest::emergency_stop_t estop(bool engaged, bool clear) {
+  harvest::emergency_stop_t e{};
+  e.engaged = engaged;
+  e.clear = clear;
+  e.source = "test";
+  e.reason = engaged ? "button" : "released";
+  return e;
+}
+
+harvest::operator_command_t reset_fault() {
+  harvest::operator_command_t o{};
+  o.command = harvest::operator_command_t::RESET_FAULT;
+  o.source = "test";
+  return o;
+}
+
+bool all_drives_in(const robot_state_t& s, canopen::Cia402State st) {
+  for (auto d : s.drive_state)
+    if (d != static_cast<int8_t>(st)) return false;
+  return !s.drive_state.empty();
+}
+
+// Tool displacement per second between two states (header.utime is the sample time).
+Eigen::Vector3d measured_velocity(const robot_state_t& a, const robot_state_t& b) {
+  return (position(b.tool_pose) - position(a.tool_pose)) / rt::to_seconds(b.header.utime - a.header.utime);
+}
+
+TEST(RobotLinkNode, EnablesAllDrivesAndPublishesToolAndCameraPoses) {
+  Rig rig(default_config());
+  rig.start();
+  const auto& s = rig.last();
+  EXPECT_EQ(s.num_joints, 7);
+  EXPECT_TRUE(all_drives_in(s, canopen::Cia402State::kOperationEnabled));
+  EXPECT_EQ(s.fault_flags, 0) << s.fault_text;
+  EXPECT_FALSE(s.command_stale) << "no command yet is not a stale command";
+  for (std::size_t i = 0; i < rig.drives().size(); ++i)
+    EXPECT_NEAR(s.joint_position[i], rig.drives().drive(i).position(), 1e-5);
+  EXPECT_EQ(s.header.frame_id, "base");
+  // Poses are the model's FK of the reported joints: TCP 190.5 mm beyond the
+  // flange along the flange z axis (the approach axis), camera optical frame.
+  const Eigen::VectorXd q = joints(s);
+  const Eigen::Isometry3d flange = kinematics::flange_pose(rig.model(), q);
+  const Eigen::Vector3d tcp = position(s.tool_pose);
+  EXPECT_LT((tcp - (flange.translation() + 0.1905 * flange.linear().col(2))).norm(), 1e-9);
+  const Eigen::Matrix3d tool_r = orientation(s.tool_pose).toRotationMatrix();
+  EXPECT_LT((tool_r.col(2) - flange.linear().col(2)).norm(), 1e-9) << "tool z is the approach axis";
+  const Eigen::Isometry3d cam = kinematics::camera_pose(rig.model(), q);
+  EXPECT_LT((position(s.camera_pose) - cam.translation()).norm(), 1e-9);
+  EXPECT_TRUE(orientation(s.camera_pose).toRotationMatrix().isApprox(cam.linear(), 1e-9));
+  // Home: tool at about (-400, 700, -300) mm, approach axis toward the tree (+y).
+  EXPECT_LT((tcp - Eigen::Vector3d(-0.4, 0.7, -0.3)).norm(), 0.02) << tcp.transpose();
+  EXPECT_GT(tool_r.col(2).y(), 0.99);
+}
+
+TEST(RobotLinkNode, TwistMovesTheToolAtTheCommandedVelocity) {
+  Rig rig(default_config());
+  rig.start();
+  const Eigen::Vector3d v(0.05, 0.03, -0.04);
+  const auto cmd = every_20ms(rig, twist_command(v.x(), v.y(), v.z()));
+  rig.run(0.3, cmd);  // ramp up
+  const robot_state_t a = rig.last();
+  const Eigen::Quaterniond qa = orientation(a.tool_pose);
+  rig.run(1.0, cmd);
+  const robot_state_t b = rig.last();
+  EXPECT_EQ(b.mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  const Eigen::Vector3d measured = measured_velocity(a, b);
+  EXPECT_LT((measured - v).norm(), 0.01 * v.norm()) << measured.transpose();
+  EXPECT_LT(orientation(b.tool_pose).angularDistance(qa), 1e-3) << "no angular velocity was commanded";
+  const Eigen::Vector3d reported(b.tool_twist.linear[0], b.tool_twist.linear[1], b.tool_twist.linear[2]);
+  EXPECT_LT((reported - v).norm(), 0.02 * v.norm()) << reported.transpose();
+  EXPECT_EQ(b.fault_flags, 0) << b.fault_text;
+  EXPECT_GE(b.last_command_seq, 0);
+}
+
+TEST(RobotLinkNode, AngularTwistRotatesTheToolAboutItsCentre) {
+  Rig rig(default_config());
+  rig.start();
+  const Eigen::Vector3d w(0.0, 0.2, 0.1);
+  const auto cmd = every_20ms(rig, twist_command(0, 0, 0, w.x(), w.y(), w.z()));
+  rig.run(0.3, cmd);
+  const robot_state_t a = rig.last();
+  rig.run(1.0, cmd);
+  const robot_state_t b = rig.last();
+  const Eigen::AngleAxisd rot(orientation(b.tool_pose) * orientation(a.tool_pose).inverse());
+  const Eigen::Vector3d measured = rot.angle() * rot.axis() / rt::to_seconds(b.header.utime - a.header.utime);
+  EXPECT_LT((measured - w).norm(), 0.01 * w.norm()) << measured.transpose();
+  EXPECT_LT((position(b.tool_pose) - position(a.tool_pose)).norm(), 1e-3) << "the TCP stays put";
+}
+
+TEST(RobotLinkNode, StaleCommandGivesAControlledStopNotAFault) {
+  Rig rig(default_config());
+  rig.start();
+  auto cmd = twist_command(0.0, 0.0, 0.1);
+  cmd.validity_us = 100'000;
+  rig.run(0.5, every_20ms(rig, cmd));
+  ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  const std::size_t moving_until = rig.states().size();
+  const rt::Micros last_cmd_time = rig.now() - 1000 * ((rig.now() - kStart) / 1000 % 20);  // approx., checked below
+  (void)last_cmd_time;
+  // Commands stop arriving.
+  rig.run(0.09);
+  EXPECT_FALSE(rig.last().command_stale) << "still within the 100 ms validity";
+  EXPECT_NE(rig.last().joint_velocity_cmd, std::vector<double>(7, 0.0));
+  rig.run(0.03);
+  EXPECT_TRUE(rig.last().command_stale);
+  EXPECT_TRUE(rig.last().fault_flags & kFlagCommandStale);
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_IDLE; }, 2.0)) << rig.describe_last();
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  // Controlled: the joint commands ramp down within the acceleration limits, no jump to zero.
+  const double dt = 0.01;
+  const Eigen::VectorXd amax = rig.model().max_acceleration();
+  int ramp_cycles = 0;
+  for (std::size_t k = moving_until; k < rig.states().size(); ++k) {
+    const auto& p = rig.states()[k - 1].joint_velocity_cmd;
+    const auto& c = rig.states()[k].joint_velocity_cmd;
+    bool changed = false;
+    for (int j = 0; j < 7; ++j) {
+      EXPECT_LE(std::abs(c[j] - p[j]), amax[j] * dt * (1 + 1e-9)) << "joint " << j << " state " << k;
+      changed = changed || c[j] != p[j];
+    }
+    ramp_cycles += changed;
+  }
+  EXPECT_GE(ramp_cycles, 2);
+  EXPECT_NE(rig.last().mode, +robot_state_t::MODE_FAULT);
+  // A new command moves again, without any reset.
+  rig.run(0.3, every_20ms(rig, cmd));
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  EXPECT_FALSE(rig.last().command_stale);
+}
+
+// Runs a moving arm into `inject`, then checks: all drives stop, the state
+// shows `flag`, the fault latches (commands ignored) until RESET_FAULT.
+void expect_fault_stop(const std::function<void(Rig&)>& inject, int32_t flag, const std::string& text,
+                       const std::function<void(Rig&)>& repair = {}) {
+  Rig rig(default_config());
+  rig.start();
+  const auto cmd = every_20ms(rig, twist_command(0.0, 0.05, 0.05));
+  rig.run(0.5, cmd);
+  ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  ASSERT_GT(rig.max_true_speed(), 0.01);
+  inject(rig);
+  ASSERT_TRUE(rig.run_until([&] { return (rig.last().fault_flags & flag) != 0; }, 0.5, cmd)) << rig.describe_last();
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_FAULT) << rig.describe_last();
+  EXPECT_NE(rig.last().fault_text.find(text), std::string::npos) << rig.last().fault_text;
+  EXPECT_EQ(rig.last().joint_velocity_cmd, std::vector<double>(7, 0.0));
+  // Every drive ramps to rest (quick stop) while commands keep arriving.
+  rig.run(0.5, cmd);
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  for (std::size_t i = 0; i < rig.drives().size(); ++i) {
+    const auto st = rig.drives().drive(i).state();
+    EXPECT_TRUE(st == canopen::Cia402State::kQuickStopActive || st == canopen::Cia402State::kFault ||
+                st == canopen::Cia402State::kSwitchOnDisabled)
+        << "drive " << i << " in " << canopen::to_string(st);
+  }
+  const Eigen::Vector3d held = position(rig.last().tool_pose);
+  rig.run(0.5, cmd);
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_FAULT) << "latched";
+  EXPECT_LT((position(rig.last().tool_pose) - held).norm(), 1e-6);
+  if (repair) repair(rig);
+  rig.inject(ch::kOperatorCommand, reset_fault());
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_MOVING; }, 2.0, cmd))
+      << rig.describe_last();
+  EXPECT_EQ(rig.last().fault_flags & flag, 0);
+}
+
+TEST(RobotLinkNode, DriveFaultQuickStopsEveryDriveUntilReset) {
+  expect_fault_stop([](Rig& r) { r.drives().drive(2).inject_fault(0x2310); }, kFlagDriveFault | kFlagEmcy,
+                    "joint 3 (node 3)");
+}
+
+TEST(RobotLinkNode, DriveFaultSetsBothFaultAndEmcyFlags) {
+  Rig rig(default_config());
+  rig.start();
+  rig.drives().drive(6).inject_fault(0x2310);
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_FAULT; }, 0.5));
+  rig.run(0.1);
+  EXPECT_TRUE(rig.last().fault_flags & kFlagDriveFault);
+  EXPECT_TRUE(rig.last().fault_flags & kFlagEmcy);
+  EXPECT_EQ(rig.last().drive_error_code[6], 0x2310);
+  EXPECT_EQ(rig.last().drive_state[6], static_cast<int8_t>(canopen::Cia402State::kFault));
+  EXPECT_NE(rig.last().fault_text.find("0x2310"), std::string::npos) << rig.last().fault_text;
+}
+
+TEST(RobotLinkNode, HeartbeatLossStopsTheArm) {
+  expect_fault_stop([](Rig& r) { r.drives().drive(4).set_heartbeat_enabled(false); }, kFlagHeartbeatLost,
+                    "joint 5 (node 5): heartbeat lost",
+                    [](Rig& r) { r.drives().drive(4).set_heartbeat_enabled(true); });
+}
+
+TEST(RobotLinkNode, PdoLossStopsTheArm) {
+  expect_fault_stop([](Rig& r) { r.drives().drive(0).set_silent(true); }, kFlagPdoLost,
+                    "joint 1 (node 1): no PDO", [](Rig& r) { r.drives().drive(0).set_silent(false); });
+}
+
+TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {
+  Rig rig(default_config());
+  rig.start();
+  const auto cmd = every_20ms(rig, twist_command(0.05, 0.0, 0.05));
+  rig.run(0.5, cmd);
+  ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING);
+  const std::size_t before = rig.states().size();
+  rig.inject(ch::kEmergencyStop, estop(true, false));
+  rig.run(0.011, cmd);  // the next SYNC
+  ASSERT_GT(rig.states().size(), before);
+  const auto& first = rig.states()[before];
+  EXPECT_EQ(first.mode, +robot_state_t::MODE_ESTOP);
+  EXPECT_TRUE(first.fault_flags & kFlagEstop);
+  EXPECT_EQ(first.joint_velocity_cmd, std::vector<double>(7, 0.0));
+  EXPECT_NE(first.fault_text.find("button"), std::string::npos) << first.fault_text;
+  rig.run(0.3, cmd);
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  EXPECT_TRUE(all_drives_in(rig.last(), canopen::Cia402State::kQuickStopActive)) << rig.describe_last();
+  // A fault reset does not release it; only a clear does.
+  rig.inject(ch::kOperatorCommand, reset_fault());
+  rig.inject(ch::kEmergencyStop, estop(false, false));
+  rig.run(0.3, cmd);
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_ESTOP);
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  rig.inject(ch::kEmergencyStop, estop(false, true));
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_MOVING; }, 2.0, cmd))
+      << rig.describe_last();
+  EXPECT_EQ(rig.last().fault_flags & kFlagEstop, 0);
+}
+
+TEST(RobotLinkNode, LinearSpeedIsLimitedAndReported) {
+  Rig rig(default_config());
+  rig.start();
+  const auto cmd = every_20ms(rig, twist_command(0.0, 0.0, 1.0));  // 1 m/s asked, 0.381 allowed
+  rig.run(0.3, cmd);
+  const robot_state_t a = rig.last();
+  rig.run(0.5, cmd);
+  const robot_state_t b = rig.last();
+  const Eigen::Vector3d v = measured_velocity(a, b);
+  EXPECT_NEAR(v.z(), 0.381, 0.005) << v.transpose();
+  EXPECT_LT(v.head<2>().norm(), 0.005);
+  EXPECT_TRUE(b.fault_flags & kFlagLimited);
+  EXPECT_GE(b.num_limit_events, 1);
+  EXPECT_NE(b.fault_text.find("linear speed"), std::string::npos) << b.fault_text;
+  EXPECT_EQ(b.mode, +robot_state_t::MODE_MOVING);
+}
+
+TEST(RobotLinkNode, WorkspaceBoundaryIsNeverCrossed) {
+  RobotLinkConfig c = default_config();
+  const Eigen::Vector3d home_tcp = kinematics::tool_pose(c.model, c.model.home).translation();
+  c.workspace.max.z() = home_tcp.z() + 0.05;
+  const double wall = c.workspace.max.z();
+  Rig rig(std::move(c));
+  rig.start();
+  double highest = -1e9;
+  rig.on_state([&](const robot_state_t& s) { highest = std::max(highest, s.tool_pose.position[2]); });
+  rig.run(1.5, every_20ms(rig, twist_command(0.0, 0.02, 0.2)));
+  EXPECT_LE(highest, wall + 1e-3);
+  EXPECT_GT(highest, wall - 2e-3) << "it did get to the boundary";
+  EXPECT_TRUE(rig.last().fault_flags & kFlagLimited);
+  EXPECT_NE(rig.last().fault_text.find("workspace boundary in z"), std::string::npos) << rig.last().fault_text;
+  // Motion along the boundary goes on.
+  const robot_state_t a = rig.last();
+  rig.run(0.5, every_20ms(rig, twist_command(0.0, 0.02, 0.2)));
+  EXPECT_NEAR(measured_velocity(a, rig.last()).y(), 0.02, 0.002);
+}
+
+TEST(RobotLinkNode, JointLimitsAreRespected) {
+  RobotLinkConfig c = default_config();
+  // A narrow range for joint 1 around home; a twist that needs joint 1.
+  auto& j1 = c.model.joints[0];
+  j1.min = c.model.home[0] - 0.03;
+  j1.max = c.model.home[0] + 0.03;
+  const kinematics::Jacobian jac = kinematics::tool_jacobian(c.model, c.model.home);
+  const Eigen::Vector3d dir = jac.col(0).head<3>().normalized();
+  const Eigen::VectorXd vmax = c.model.max_velocity(), amax = c.model.max_acceleration();
+  const double upper = j1.max;
+  Rig rig(std::move(c));
+  rig.start();
+  double highest = -1e9;
+  bool within = true;
+  std::vector<double> prev(7, 0.0);
+  rig.on_state([&](const robot_state_t& s) {
+    highest = std::max(highest, s.joint_position[0]);
+    for (int j = 0; j < 7; ++j) {
+      within = within && rig.model().joints[j].min - 1e-6 <= s.joint_position[j] &&
+               s.joint_position[j] <= rig.model().joints[j].max + 1e-6;
+      within = within && std::abs(s.joint_velocity_cmd[j]) <= vmax[j] + 1e-9;
+      within = within && std::abs(s.joint_velocity_cmd[j] - prev[j]) <= amax[j] * 0.01 * (1 + 1e-9);
+    }
+    prev = s.joint_velocity_cmd;
+  });
+  rig.run(2.0, every_20ms(rig, twist_command(0.1 * dir.x(), 0.1 * dir.y(), 0.1 * dir.z())));
+  EXPECT_TRUE(within);
+  EXPECT_LE(highest, upper + 1e-6);
+  EXPECT_GT(highest, upper - 2e-3) << "the joint did reach its limit";
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+}
+
+TEST(RobotLinkNode, PoseGoalIsReachedOnASmoothTrajectory) {
+  RobotLinkConfig c = default_config();
+  const double vmax = c.limits.linear_speed;
+  Rig rig(std::move(c));
+  rig.start();
+  const auto& s0 = rig.last();
+  Eigen::Vector3d goal_p = position(s0.tool_pose) + Eigen::Vector3d(0.10, 0.15, -0.05);
+  Eigen::Quaterniond goal_q = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()) * orientation(s0.tool_pose);
+  harvest::robot_command_t cmd{};
+  cmd.type = harvest::robot_command_t::TYPE_POSE_GOAL;
+  cmd.validity_us = 200'000;
+  cmd.goal_id = 42;
+  for (int i = 0; i < 3; ++i) cmd.pose_goal.position[i] = goal_p[i];
+  cmd.pose_goal.orientation[0] = goal_q.w();
+  cmd.pose_goal.orientation[1] = goal_q.x();
+  cmd.pose_goal.orientation[2] = goal_q.y();
+  cmd.pose_goal.orientation[3] = goal_q.z();
+  double peak = 0.0;
+  rig.on_state([&](const robot_state_t& s) {
+    peak = std::max(peak, Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm());
+  });
+  rig.run(3.0, every_20ms(rig, cmd));
+  const auto& s = rig.last();
+  EXPECT_LT((position(s.tool_pose) - goal_p).norm(), 1e-3);
+  EXPECT_LT(orientation(s.tool_pose).angularDistance(goal_q), 5e-3);
+  EXPECT_LE(peak, vmax * 1.02);
+  EXPECT_GT(peak, 0.05);
+  EXPECT_EQ(s.fault_flags, 0) << s.fault_text;
+}
+
+TEST(RobotLinkNode, JointGoalIsReached) {
+  Rig rig(default_config());
+  rig.start();
+  Eigen::VectorXd goal = rig.model().home;
+  goal[1] += 0.2;
+  goal[3] -= 0.15;
+  goal[6] += 0.3;
+  harvest::robot_command_t cmd{};
+  cmd.type = harvest::robot_command_t::TYPE_JOINT_GOAL;
+  cmd.validity_us = 200'000;
+  cmd.goal_id = 7;
+  cmd.num_joints = 7;
+  cmd.joint_goal.assign(goal.data(), goal.data() + 7);
+  rig.run(2.0, every_20ms(rig, cmd));
+  EXPECT_LT((joints(rig.last()) - goal).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_EQ(rig.last().fault_flags, 0) << rig.last().fault_text;
+}
+
+TEST(RobotLinkNode, CommandsOutsideLimitsAreRefusedAndReported) {
+  Rig rig(default_config());
+  rig.start();
+  const Eigen::Vector3d start = position(rig.last().tool_pose);
+  harvest::robot_command_t pose{};
+  pose.type = harvest::robot_command_t::TYPE_POSE_GOAL;
+  pose.pose_goal.position[0] = 5.0;  // far outside the workspace
+  pose.pose_goal.orientation[0] = 1.0;
+  rig.inject(ch::kRobotCommand, pose);
+  rig.run(0.2);
+  EXPECT_TRUE(rig.last().fault_flags & kFlagRefused);
+  EXPECT_EQ(rig.last().num_limit_events, 1);
+  EXPECT_NE(rig.last().fault_text.find("outside the workspace"), std::string::npos) << rig.last().fault_text;
+  harvest::robot_command_t joint{};
+  joint.type = harvest::robot_command_t::TYPE_JOINT_GOAL;
+  joint.num_joints = 7;
+  joint.joint_goal.assign(7, 0.0);
+  joint.joint_goal[1] = 3.0;  // beyond +-120 deg
+  rig.inject(ch::kRobotCommand, joint);
+  joint.num_joints = 6;
+  joint.joint_goal.assign(6, 0.0);
+  rig.inject(ch::kRobotCommand, joint);
+  rig.run(0.2);
+  EXPECT_EQ(rig.last().num_limit_events, 3);
+  EXPECT_NE(rig.last().fault_text.find("6 joints"), std::string::npos) << rig.last().fault_text;
+  EXPECT_LT((position(rig.last().tool_pose) - start).norm(), 1e-6) << "nothing moved";
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_IDLE);
+}
+
+TEST(RobotLinkNode, ShutdownStopsAndDisablesTheDrives) {
+  Rig rig(default_config());
+  rig.start();
+  rig.run(0.5, every_20ms(rig, twist_command(0.05, 0.05, 0.0)));
+  ASSERT_GT(rig.max_true_speed(), 0.01);
+  rig.node().begin_shutdown();
+  ASSERT_TRUE(rig.run_until([&] { return rig.node().shutdown_complete(); }, 3.0)) << rig.describe_last();
+  rig.run(0.05);
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  for (std::size_t i = 0; i < rig.drives().size(); ++i) {
+    EXPECT_EQ(rig.drives().drive(i).state(), canopen::Cia402State::kSwitchOnDisabled) << i;
+    EXPECT_EQ(rig.drives().drive(i).nmt_state(), canopen::NmtState::kStopped) << i;
+  }
+}
+
+}  // namespace
+}  // namespace harvest::arm
