@@ -11,24 +11,42 @@ namespace harvest::servo {
 
 const char* state_name(State s) {
   switch (s) {
-    case State::kIdle: return "IDLE";
-    case State::kSelect: return "SELECT";
-    case State::kOrient: return "ORIENT";
-    case State::kAcquire: return "ACQUIRE";
-    case State::kApproach: return "APPROACH";
-    case State::kReacquire: return "REACQUIRE";
-    case State::kIrApproach: return "IR_APPROACH";
-    case State::kBackoff: return "BACKOFF";
-    case State::kGrasp: return "GRASP";
-    case State::kDetach: return "DETACH";
-    case State::kDrop: return "DROP";
-    case State::kRelease: return "RELEASE";
-    case State::kRetreat: return "RETREAT";
-    case State::kReturn: return "RETURN";
-    case State::kHoming: return "HOMING";
-    case State::kDone: return "DONE";
-    case State::kFault: return "FAULT";
-    case State::kEstop: return "ESTOP";
+    case State::kIdle:
+      return "IDLE";
+    case State::kSelect:
+      return "SELECT";
+    case State::kOrient:
+      return "ORIENT";
+    case State::kAcquire:
+      return "ACQUIRE";
+    case State::kApproach:
+      return "APPROACH";
+    case State::kReacquire:
+      return "REACQUIRE";
+    case State::kIrApproach:
+      return "IR_APPROACH";
+    case State::kBackoff:
+      return "BACKOFF";
+    case State::kGrasp:
+      return "GRASP";
+    case State::kDetach:
+      return "DETACH";
+    case State::kDrop:
+      return "DROP";
+    case State::kRelease:
+      return "RELEASE";
+    case State::kRetreat:
+      return "RETREAT";
+    case State::kReturn:
+      return "RETURN";
+    case State::kHoming:
+      return "HOMING";
+    case State::kDone:
+      return "DONE";
+    case State::kFault:
+      return "FAULT";
+    case State::kEstop:
+      return "ESTOP";
   }
   return "?";
 }
@@ -37,11 +55,16 @@ namespace {
 
 const char* outcome_name(int8_t o) {
   switch (o) {
-    case fruit_outcome_t::PICKED: return "picked";
-    case fruit_outcome_t::LOST: return "lost";
-    case fruit_outcome_t::UNREACHABLE: return "unreachable";
-    case fruit_outcome_t::FAILED_GRASP: return "failed grasp";
-    case fruit_outcome_t::ABORTED: return "aborted";
+    case fruit_outcome_t::PICKED:
+      return "picked";
+    case fruit_outcome_t::LOST:
+      return "lost";
+    case fruit_outcome_t::UNREACHABLE:
+      return "unreachable";
+    case fruit_outcome_t::FAILED_GRASP:
+      return "failed grasp";
+    case fruit_outcome_t::ABORTED:
+      return "aborted";
   }
   return "?";
 }
@@ -64,8 +87,10 @@ bool HarvestMachine::running() const {
     case State::kIdle:
     case State::kDone:
     case State::kFault:
-    case State::kEstop: return false;
-    default: return true;
+    case State::kEstop:
+      return false;
+    default:
+      return true;
   }
 }
 
@@ -175,34 +200,61 @@ gripper_command_t HarvestMachine::gripper_command(int8_t action) const {
 
 // ---------------------------------------------------------------- transitions
 
+namespace {
+// States that command twists (the others send pose goals, STOP or nothing).
+bool twist_state(State s) {
+  return s == State::kAcquire || s == State::kApproach || s == State::kReacquire || s == State::kIrApproach;
+}
+}  // namespace
+
 void HarvestMachine::enter(State s, rt::Micros now, MachineOutput& out) {
+  // From one twist state to another the twist keeps ramping within the
+  // acceleration limit (no step to a new speed, no hard stop when the fruit
+  // is lost); after a pose goal or a stop it ramps up from rest.
+  if (!(twist_state(state_) && twist_state(s))) limiter_.reset();
   state_ = s;
   entered_at_ = now;
   out.status_changed = true;
-  limiter_.reset();
   const Timeouts& t = cfg_.timeouts;
   double timeout = 0.0;
   switch (s) {
-    case State::kSelect: timeout = t.select; break;
+    case State::kSelect:
+      timeout = t.select;
+      break;
     case State::kOrient:
     case State::kBackoff:
     case State::kDetach:
     case State::kDrop:
     case State::kRetreat:
     case State::kReturn:
-    case State::kHoming: timeout = t.motion; break;
-    case State::kAcquire: timeout = t.acquire; break;
-    case State::kApproach: timeout = t.approach; break;
-    case State::kReacquire: timeout = t.reacquire; break;
-    case State::kIrApproach: timeout = t.ir_approach; break;
-    case State::kGrasp: timeout = t.grasp; break;
-    case State::kRelease: timeout = t.release; break;
+    case State::kHoming:
+      timeout = t.motion;
+      break;
+    case State::kAcquire:
+      timeout = t.acquire;
+      break;
+    case State::kApproach:
+      timeout = t.approach;
+      break;
+    case State::kReacquire:
+      timeout = t.reacquire;
+      break;
+    case State::kIrApproach:
+      timeout = t.ir_approach;
+      break;
+    case State::kGrasp:
+      timeout = t.grasp;
+      break;
+    case State::kRelease:
+      timeout = t.release;
+      break;
     case State::kIdle:
     case State::kDone:
       stop_pending_ = true;
       break;
     case State::kFault:
-    case State::kEstop: break;
+    case State::kEstop:
+      break;
   }
   deadline_ = timeout > 0 ? now + rt::from_seconds(timeout) : 0;
 }
@@ -250,11 +302,21 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
   o.detail = detail;
   outcomes_.push_back(o);
   switch (outcome) {
-    case fruit_outcome_t::PICKED: ++picked_; break;
-    case fruit_outcome_t::LOST: ++lost_; break;
-    case fruit_outcome_t::UNREACHABLE: ++unreachable_; break;
-    case fruit_outcome_t::FAILED_GRASP: ++failed_grasp_; break;
-    default: ++aborted_; break;
+    case fruit_outcome_t::PICKED:
+      ++picked_;
+      break;
+    case fruit_outcome_t::LOST:
+      ++lost_;
+      break;
+    case fruit_outcome_t::UNREACHABLE:
+      ++unreachable_;
+      break;
+    case fruit_outcome_t::FAILED_GRASP:
+      ++failed_grasp_;
+      break;
+    default:
+      ++aborted_;
+      break;
   }
   // A fruit is given up for good once picked, unreachable, or out of attempts.
   if (outcome == fruit_outcome_t::PICKED || outcome == fruit_outcome_t::UNREACHABLE ||
@@ -288,6 +350,30 @@ void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOut
   note_ = "FAULT: " + detail;
   out.robot = stop_command();
   out.log = note_;
+}
+
+bool HarvestMachine::at_home() const {
+  const Eigen::Isometry3d t = tool();
+  return (t.translation() - cfg_.home_pose.translation()).norm() <= cfg_.position_tolerance &&
+         rotation_distance(t.rotation(), cfg_.home_pose.rotation()) <= cfg_.orient_tolerance;
+}
+
+void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
+  // Every fruit is selected and aimed at from the home pose (the view the
+  // fixed camera's estimate is good for): a start anywhere else, e.g. after an
+  // emergency stop or a fault next to the canopy, first backs out along the
+  // tool axis and returns home (RETREAT -> RETURN -> SELECT).
+  if (at_home()) {
+    enter(State::kSelect, now, out);
+    return;
+  }
+  if ((tool().translation() - cfg_.home_pose.translation()).norm() > cfg_.retreat_distance) {
+    Eigen::Isometry3d g = tool();
+    g.translation() -= cfg_.retreat_distance * g.rotation().col(2);
+    start_goal(g, State::kRetreat, now, out);
+  } else {
+    start_goal(cfg_.home_pose, State::kReturn, now, out);
+  }
 }
 
 void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
@@ -325,9 +411,15 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
       note_ = "no view from the fixed camera";
       enter(State::kDone, now, out);
       break;
-    case State::kAcquire: fail_fruit(fruit_outcome_t::LOST, "not seen by the camera-in-hand", false, now, out); break;
-    case State::kReacquire: fail_fruit(fruit_outcome_t::LOST, "lost from view, not re-acquired", true, now, out); break;
-    case State::kApproach: fail_fruit(fruit_outcome_t::LOST, "approach timed out", true, now, out); break;
+    case State::kAcquire:
+      fail_fruit(fruit_outcome_t::LOST, "not seen by the camera-in-hand", false, now, out);
+      break;
+    case State::kReacquire:
+      fail_fruit(fruit_outcome_t::LOST, "lost from view, not re-acquired", true, now, out);
+      break;
+    case State::kApproach:
+      fail_fruit(fruit_outcome_t::LOST, "approach timed out", true, now, out);
+      break;
     case State::kIrApproach:
       // Same as running out of travel: back off and retry, or give up.
       if (ir_attempt_ < cfg_.ir_attempts) {
@@ -338,9 +430,15 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
         fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered", true, now, out);
       }
       break;
-    case State::kGrasp: fault("gripper did not report holding or closed in time", now, out); break;
-    case State::kRelease: fault("gripper did not report open in time", now, out); break;
-    default: fault(std::string("motion did not complete in ") + state_name(state_), now, out); break;
+    case State::kGrasp:
+      fault("gripper did not report holding or closed in time", now, out);
+      break;
+    case State::kRelease:
+      fault("gripper did not report open in time", now, out);
+      break;
+    default:
+      fault(std::string("motion did not complete in ") + state_name(state_), now, out);
+      break;
   }
 }
 
@@ -407,9 +505,14 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
     case robot_state_t::MODE_FAULT:
       fault("robot fault: " + (msg.fault_text.empty() ? std::string("(no text)") : msg.fault_text), now, out);
       break;
-    case robot_state_t::MODE_ESTOP: fault("robot reports emergency stop", now, out); break;
-    case robot_state_t::MODE_DISABLED: fault("robot drives disabled", now, out); break;
-    default: break;
+    case robot_state_t::MODE_ESTOP:
+      fault("robot reports emergency stop", now, out);
+      break;
+    case robot_state_t::MODE_DISABLED:
+      fault("robot drives disabled", now, out);
+      break;
+    default:
+      break;
   }
   return out;
 }
@@ -454,7 +557,8 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
         start_goal(cfg_.home_pose, State::kReturn, now, out);
       }
       break;
-    default: break;
+    default:
+      break;
   }
   return out;
 }
@@ -486,7 +590,7 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
         return out;
       }
       note_ = "started by " + who;
-      enter(State::kSelect, now, out);
+      begin_from_home(now, out);
       break;
     case operator_command_t::PAUSE:
       if (!running() || paused_) {
@@ -511,8 +615,8 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
       break;
     case operator_command_t::ABORT:
       if (current_)
-        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator abort", current_->selected_at,
-               now, out);
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator abort", current_->selected_at, now,
+               out);
       current_.reset();
       paused_ = false;
       if (!estop_) {
@@ -536,8 +640,8 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
         return out;
       }
       if (current_)
-        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator home", current_->selected_at,
-               now, out);
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "operator home", current_->selected_at, now,
+               out);
       current_.reset();
       paused_ = false;
       start_goal(cfg_.home_pose, State::kHoming, now, out);
@@ -552,9 +656,9 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
       enter(State::kIdle, now, out);
       break;
     default: {
-        refuse("unknown command " + std::to_string(msg.command));
-        return out;
-      }
+      refuse("unknown command " + std::to_string(msg.command));
+      return out;
+    }
   }
   return out;
 }
@@ -566,8 +670,8 @@ MachineOutput HarvestMachine::on_estop(const emergency_stop_t& msg, rt::Micros n
     out.robot = stop_command();
     if (!estop_) {
       if (current_)
-        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "emergency stop", current_->selected_at,
-               now, out);
+        record(fruit_outcome_t::ABORTED, current_->id, current_->estimate, "emergency stop", current_->selected_at, now,
+               out);
       current_.reset();
       estop_ = true;
       paused_ = false;
@@ -632,18 +736,26 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         return;
       }
       switch (state_) {
-        case State::kOrient: enter(State::kAcquire, now, out); break;
+        case State::kOrient:
+          enter(State::kAcquire, now, out);
+          break;
         case State::kBackoff:
           ++ir_attempt_;
           enter(State::kIrApproach, now, out);
           break;
-        case State::kDetach: start_goal(cfg_.drop_pose, State::kDrop, now, out); break;
+        case State::kDetach:
+          start_goal(cfg_.drop_pose, State::kDrop, now, out);
+          break;
         case State::kDrop:
           enter(State::kRelease, now, out);
           out.gripper = gripper_command(gripper_command_t::ACTION_OPEN);
           break;
-        case State::kRetreat: start_goal(cfg_.home_pose, State::kReturn, now, out); break;
-        case State::kReturn: enter(State::kSelect, now, out); break;
+        case State::kRetreat:
+          start_goal(cfg_.home_pose, State::kReturn, now, out);
+          break;
+        case State::kReturn:
+          enter(State::kSelect, now, out);
+          break;
         default:
           note_ = "at home";
           enter(State::kIdle, now, out);
@@ -682,8 +794,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
     }
     case State::kIrApproach: {
       const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
-      const bool inside = ir_fresh &&
-                          (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
+      const bool inside = ir_fresh && (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
                           ir_->range_m <= cfg_.ir_grasp_range;
       if (inside) {
         // Thesis HarvestStep5: stop and close the gripper on the fruit.
@@ -705,8 +816,11 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       return;
     }
     case State::kGrasp:
-    case State::kRelease: out.robot = stop_command(); return;
-    default: return;
+    case State::kRelease:
+      out.robot = stop_command();
+      return;
+    default:
+      return;
   }
 }
 

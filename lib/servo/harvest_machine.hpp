@@ -2,8 +2,8 @@
 // pure state machine: messages and ticks in, commands out. No LCM, no clock,
 // no logging: ServoControllerNode wires it to the bus.
 //
-//   IDLE -START-> SELECT -> ORIENT -> ACQUIRE -> APPROACH -> IR_APPROACH -> GRASP
-//     -> DETACH -> DROP -> RELEASE -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
+//   IDLE -START-> ([RETREAT ->] RETURN, if not at home) -> SELECT -> ORIENT -> ACQUIRE -> APPROACH
+//     -> IR_APPROACH -> GRASP -> DETACH -> DROP -> RELEASE -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
 //   failures: APPROACH <-> REACQUIRE -> LOST; IR_APPROACH -> BACKOFF -> IR_APPROACH
 //     -> FAILED_GRASP; each then RETREAT -> RETURN -> SELECT. Faults -> FAULT
 //     (until RESET_FAULT), emergency stop -> ESTOP (latched until cleared).
@@ -108,14 +108,17 @@ class HarvestMachine {
   void start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out);
   bool goal_reached() const;
   Eigen::Isometry3d inside_workspace(const Eigen::Isometry3d& goal) const;
+  bool at_home() const;
+  // START: SELECT from the home pose, else retreat and return home first.
+  void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
   void on_timeout(rt::Micros now, MachineOutput& out);
   void step(rt::Micros now, MachineOutput& out);
   // Ends the current fruit with an outcome; `retreat` pulls back along the
   // tool axis before returning home.
   void fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now, MachineOutput& out);
-  void record(int8_t outcome, int fruit_id, const Eigen::Vector3d& target, const std::string& detail,
-              rt::Micros since, rt::Micros now, MachineOutput& out);
+  void record(int8_t outcome, int fruit_id, const Eigen::Vector3d& target, const std::string& detail, rt::Micros since,
+              rt::Micros now, MachineOutput& out);
   void fault(const std::string& detail, rt::Micros now, MachineOutput& out);
   std::optional<std::string> gripper_fault() const;
 

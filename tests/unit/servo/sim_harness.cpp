@@ -73,7 +73,7 @@ void ArmDouble::step() {
   if (valid && cmd_->type == robot_command_t::TYPE_TWIST) {
     v = Eigen::Vector3d(cmd_->twist.linear[0], cmd_->twist.linear[1], cmd_->twist.linear[2]);
     w = Eigen::Vector3d(cmd_->twist.angular[0], cmd_->twist.angular[1], cmd_->twist.angular[2]);
-  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL) {
+  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL && !spec_.arm_ignores_goals) {
     const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
     const Eigen::Vector3d dp = goal.translation() - tool_.translation();
     v = clamp_norm(dp / dt, cmd_->max_linear_speed);
@@ -241,7 +241,8 @@ void WorldDouble::publish_ir() {
 
 void WorldDouble::publish_gripper() {
   const bool faulty = spec_.gripper_fault_after_s && since_start() >= *spec_.gripper_fault_after_s;
-  if (gripper_ == gripper_state_t::STATE_CLOSING && now() - closing_since_ >= 300 * rt::kMilli) {
+  if (gripper_ == gripper_state_t::STATE_CLOSING && now() - closing_since_ >= 300 * rt::kMilli &&
+      !spec_.gripper_stuck) {
     gripper_ = gripper_state_t::STATE_CLOSED;
     for (std::size_t i = 0; i < spec_.fruits.size() && !spec_.gripper_misses; ++i) {
       if (where_[i] == Where::kTree && (spec_.fruits[i].position - arm_.tool().translation()).norm() < 0.03) {
@@ -279,7 +280,7 @@ ServoConfig test_config() {
 WorldSpec experiment_one() {
   WorldSpec w;
   w.fruits.push_back({1, Eigen::Vector3d(-0.2286, 1.0668, -0.5402), 0.075});  // table 6-3
-  w.start_tool = thesis_start_pose();                                          // table 6-5
+  w.start_tool = thesis_start_pose();                                         // table 6-5
   w.assumed_hand = test_config().hand_camera;
   w.true_hand = w.assumed_hand;
   w.true_hand.fx *= 1.04;  // the real lens differs from its calibration

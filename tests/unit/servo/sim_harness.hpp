@@ -7,7 +7,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <deque>
 #include <optional>
 #include <random>
@@ -29,7 +28,10 @@ namespace harvest::servo::testing {
 class SimBus final : public rt::Dispatcher {
  public:
   explicit SimBus(rt::Micros start) : rt::Dispatcher(""), clock_(start) {}
-  void start() { attach_all(); drain(); }
+  void start() {
+    attach_all();
+    drain();
+  }
   void run_until(rt::Micros t);
   template <class Msg>
   void inject(const std::string& channel, Msg msg) {
@@ -73,19 +75,21 @@ struct FruitTruth {
 struct WorldSpec {
   std::vector<FruitTruth> fruits;
   Eigen::Isometry3d start_tool = Eigen::Isometry3d::Identity();
-  double camera_behind_tcp = 0.06;  // camera-in-hand optical centre behind the tool point [m]
-  double ir_behind_tcp = 0.05;      // IR sensor behind the tool point [m]
-  CameraIntrinsics true_hand;       // the real camera
-  CameraIntrinsics assumed_hand;    // the reconstructor's calibration
+  double camera_behind_tcp = 0.06;                        // camera-in-hand optical centre behind the tool point [m]
+  double ir_behind_tcp = 0.05;                            // IR sensor behind the tool point [m]
+  CameraIntrinsics true_hand;                             // the real camera
+  CameraIntrinsics assumed_hand;                          // the reconstructor's calibration
   Eigen::Vector3d fixed_error = Eigen::Vector3d::Zero();  // fixed-camera estimate minus truth [m]
-  double hand_depth_scale = 1.0;    // estimated / true depth in the hand camera
-  double pixel_noise = 0.5;         // uniform +- [px]
+  double hand_depth_scale = 1.0;                          // estimated / true depth in the hand camera
+  double pixel_noise = 0.5;                               // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
-  std::optional<double> hide_hand_after_s;   // fruit disappears from the hand camera for good
-  std::optional<double> hide_hand_for_s;     // ... only for this long
-  bool ir_dead = false;                      // IR always reports TOO_FAR
-  bool gripper_misses = false;               // closes on nothing
+  std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
+  std::optional<double> hide_hand_for_s;    // ... only for this long
+  bool ir_dead = false;                     // IR always reports TOO_FAR
+  bool gripper_misses = false;              // closes on nothing
+  bool gripper_stuck = false;               // never finishes closing (no HOLDING/CLOSED report)
+  bool arm_ignores_goals = false;           // pose goals are acknowledged but never executed
   std::optional<double> gripper_fault_after_s;
   std::optional<double> robot_fault_after_s;
   std::optional<double> robot_silent_after_s;
