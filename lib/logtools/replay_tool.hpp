@@ -1,0 +1,59 @@
+// harvest-replay (docs/replay.md): runs chosen nodes over a log with
+// rt::ReplayRunner, writes the output log, and compares the regenerated
+// channels with the recorded ones.
+//
+//   harvest-replay LOG --node fruit-detector:config/vision/detector-fixed.yaml
+//       --node fruit-detector:config/vision/detector-hand.yaml
+//       --node reconstructor:config/vision/reconstructor.yaml
+//       --out OUT.lcmlog --compare [--tolerance CHANNEL.field=abs] [--ignore CHANNEL.field]
+//
+// A node is [LABEL=]PROCESS[:CONFIG]: PROCESS is a registry name (the process
+// it runs in, see --list-nodes), CONFIG its configuration file. LABEL names it
+// in --set LABEL:key=value; by default it is PROCESS, or PROCESS/STEM of the
+// configuration file when a process appears twice.
+//
+// Exit codes: 0 replayed (and, with --compare, the same as recorded),
+// 1 differences, 2 bad command line or configuration, 3 replay failed.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "logtools/compare.hpp"
+#include "runtime/process_main.hpp"
+
+namespace harvest::logtools {
+
+struct ReplayableNode {
+  std::string process;  // "fruit-detector"
+  rt::NodeFactory factory;
+  std::string summary;
+};
+const std::vector<ReplayableNode>& node_registry();
+
+struct NodeSpec {
+  std::string label, process, config;
+};
+// Throws std::invalid_argument on an unknown process name.
+NodeSpec parse_node_spec(const std::string& spec);
+
+struct ReplayToolOptions {
+  std::string input_log;
+  std::string output_log;  // required
+  std::vector<std::string> nodes;
+  std::vector<std::string> overrides;  // [LABEL:]key=value
+  std::string prefix;
+  bool compare = false;
+  CompareOptions compare_options;
+  double tail_s = 0;
+  // Write OUT as the input with the regenerated channels replaced by the
+  // replayed ones (refreshing a reference log when a change is intended).
+  bool rebase = false;
+};
+
+int run_replay_tool(const ReplayToolOptions& options, std::ostream& out, std::ostream& err);
+
+int replay_main(int argc, char** argv);
+
+}  // namespace harvest::logtools
