@@ -58,8 +58,8 @@ bool CartesianArm::command(const robot_command_t& cmd, double t) {
       return false;
     }
     goal_ = {q.normalized().toRotationMatrix(), from_array(cmd.pose_goal.position)};
-    goal_speed_ = cmd.max_linear_speed > 0 ? std::min(cmd.max_linear_speed, setup_.max_linear_speed)
-                                            : setup_.max_linear_speed;
+    goal_speed_ =
+        cmd.max_linear_speed > 0 ? std::min(cmd.max_linear_speed, setup_.max_linear_speed) : setup_.max_linear_speed;
     goal_angular_speed_ = cmd.max_angular_speed > 0 ? std::min(cmd.max_angular_speed, setup_.max_angular_speed)
                                                     : setup_.max_angular_speed;
     // A goal motion runs to completion; it does not need refreshing.
@@ -82,7 +82,9 @@ void CartesianArm::step(double t) {
       const Vec3 e = goal_.position - tool_.position;
       const double stop_speed = std::sqrt(2.0 * setup_.max_linear_accel * e.norm());
       want_v = clamp_norm(e / std::max(dt, 1e-3), std::min(goal_speed_, stop_speed));
-      want_w = clamp_norm(rotation_error(goal_.rotation, tool_.rotation) * 2.0, goal_angular_speed_);
+      // The wrist is light (angular rate follows at once, see below): turn at
+      // the speed limit and land on the goal orientation in the last step.
+      want_w = clamp_norm(rotation_error(goal_.rotation, tool_.rotation) / std::max(dt, 1e-3), goal_angular_speed_);
     }
   }
   v_ += clamp_norm(want_v - v_, setup_.max_linear_accel * dt);

@@ -77,7 +77,10 @@ void Gripper::open(double t) {
 }
 
 void Gripper::step(double t, int64_t utime, Scene& scene, const Placement& tool) {
-  const double dt = std::max(0.0, t - last_t_);
+  // No time passed, nothing happens (as in CartesianArm::step): a repeated
+  // step at the same time must not move a held fruit or decide an outcome.
+  if (t <= last_t_) return;
+  const double dt = t - last_t_;
   last_t_ = t;
   auto& fruit = scene.fruit();
   if (phase_ == GripperPhase::kClosing) {
@@ -134,7 +137,11 @@ void Gripper::on_closed(int64_t utime, Scene& scene, const Placement& tool) {
   const Vec3 offset = f.position - tool.position;
   const Vec3 local = tool.rotation.transpose() * offset;
   const double lateral = std::hypot(local.x(), local.y()), axial = local.z();
-  if (lateral > setup_.knock_radius + f.radius) return;  // nowhere near: closed on nothing
+  // Nowhere near (beside the fingers, or in front of or behind them along the
+  // approach axis): the gripper closed on nothing.
+  if (lateral > setup_.knock_radius + f.radius || axial < setup_.capture_axial_min - f.radius ||
+      axial > setup_.capture_axial_max + f.radius)
+    return;
   ++f.grasp_attempts;
   f.grasp_offset = offset;
   if (lateral <= setup_.capture_radius && axial >= setup_.capture_axial_min && axial <= setup_.capture_axial_max) {
@@ -142,8 +149,7 @@ void Gripper::on_closed(int64_t utime, Scene& scene, const Placement& tool) {
     held_ = nearest;
     hold_offset_tool_ = local;
     phase_ = GripperPhase::kHolding;
-  } else if (lateral <= setup_.knock_radius && axial >= setup_.capture_axial_min - f.radius &&
-             axial <= setup_.capture_axial_max + f.radius) {
+  } else if (lateral <= setup_.knock_radius) {
     f.state = FruitState::kKnocked;  // a finger caught it off centre
     f.outcome_utime = utime;
   }
