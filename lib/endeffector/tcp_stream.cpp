@@ -90,10 +90,14 @@ std::unique_ptr<ByteStream> make_tcp_stream(TcpOptions options) { return std::ma
 
 std::unique_ptr<ByteStream> make_stream_from_config(const config::Node& node) {
   const std::string kind = node.choice("transport", "tcp", {"tcp", "serial"});
+  // A file may carry both sections and switch with `transport` alone (e.g.
+  // --set link.transport=serial); the section not in use is still validated.
   if (kind == "serial") {
+    if (node.has("tcp")) TcpOptions::from_config(node.child("tcp"));
     auto o = SerialOptions::from_config(node.required_child("serial"));
     return make_serial_stream(std::move(o));
   }
+  if (node.has("serial")) SerialOptions::from_config(node.child("serial"));
   return make_tcp_stream(TcpOptions::from_config(node.child("tcp")));
 }
 
