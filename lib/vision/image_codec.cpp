@@ -1,8 +1,8 @@
 #include "vision/image_codec.hpp"
 
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <cstring>
 #include <stdexcept>
 
 namespace harvest::vision {
@@ -19,8 +19,8 @@ DecodedImage decode_image(const image_t& msg) {
     return out;
   }
   if (msg.size != static_cast<int32_t>(msg.data.size())) {
-    out.error = "size field " + std::to_string(msg.size) + " does not match " + std::to_string(msg.data.size()) +
-                " data bytes";
+    out.error =
+        "size field " + std::to_string(msg.size) + " does not match " + std::to_string(msg.data.size()) + " data bytes";
     return out;
   }
   if (msg.encoding == image_t::ENCODING_BGR8 || msg.encoding == image_t::ENCODING_MONO8) {
@@ -36,8 +36,8 @@ DecodedImage decode_image(const image_t& msg) {
                   std::to_string(needed) + " bytes";
       return out;
     }
-    const cv::Mat view(msg.height, msg.width, channels == 3 ? CV_8UC3 : CV_8UC1,
-                       const_cast<uint8_t*>(msg.data.data()), static_cast<std::size_t>(msg.stride));
+    const cv::Mat view(msg.height, msg.width, channels == 3 ? CV_8UC3 : CV_8UC1, const_cast<uint8_t*>(msg.data.data()),
+                       static_cast<std::size_t>(msg.stride));
     if (channels == 3)
       view.copyTo(out.bgr);
     else
@@ -47,6 +47,20 @@ DecodedImage decode_image(const image_t& msg) {
   if (msg.encoding == image_t::ENCODING_JPEG) {
     if (msg.data.empty()) {
       out.error = "empty JPEG stream";
+      return out;
+    }
+    // A JFIF stream starts with SOI (FF D8) and ends with EOI (FF D9); some
+    // cameras pad after EOI with zeros. libjpeg "decodes" a cut-off stream by
+    // filling the missing rows with grey, so check the end marker first.
+    const auto& d = msg.data;
+    if (d.size() < 4 || d[0] != 0xFF || d[1] != 0xD8) {
+      out.error = "not a JPEG stream (no start-of-image marker, " + std::to_string(d.size()) + " bytes)";
+      return out;
+    }
+    std::size_t end = d.size();
+    while (end > 2 && d[end - 1] == 0) --end;
+    if (d[end - 2] != 0xFF || d[end - 1] != 0xD9) {
+      out.error = "truncated JPEG (no end-of-image marker, " + std::to_string(d.size()) + " bytes)";
       return out;
     }
     cv::Mat decoded;
@@ -86,7 +100,8 @@ void encode_image(const cv::Mat& bgr, bool jpeg, int jpeg_quality, image_t& msg)
     const std::size_t row = static_cast<std::size_t>(bgr.cols) * bgr.elemSize();
     msg.stride = static_cast<int32_t>(row);
     msg.data.resize(row * static_cast<std::size_t>(bgr.rows));
-    for (int y = 0; y < bgr.rows; ++y) std::memcpy(msg.data.data() + row * static_cast<std::size_t>(y), bgr.ptr(y), row);
+    for (int y = 0; y < bgr.rows; ++y)
+      std::memcpy(msg.data.data() + row * static_cast<std::size_t>(y), bgr.ptr(y), row);
   }
   msg.size = static_cast<int32_t>(msg.data.size());
 }

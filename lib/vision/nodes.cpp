@@ -79,7 +79,14 @@ void CameraNode::try_open() {
   } catch (const std::exception& e) {
     open_ = false;
     count("open_failures");
-    set_health(rt::Health::kError, std::string(e.what()) + "; retrying in " + std::to_string(backoff_s_).substr(0, 4) + " s");
+    if (config_.source != "device") {  // a file will not get better by waiting: say which and stop
+      set_health(rt::Health::kError, e.what());
+      ctx().request_stop(1);
+      retry_at_ = INT64_MAX;
+      return;
+    }
+    set_health(rt::Health::kError,
+               std::string(e.what()) + "; retrying in " + std::to_string(backoff_s_).substr(0, 4) + " s");
     retry_at_ = now() + static_cast<rt::Micros>(backoff_s_ * 1e6);
     backoff_s_ = std::min(2 * backoff_s_, config_.retry_max_s);
   }
@@ -237,8 +244,8 @@ void DetectorNode::on_image(const image_t& image) {
   fruit_detections_t out = detect_image(image, config_, detector_);
   if (out.status != fruit_detections_t::STATUS_OK) {
     count("bad_images");
-    set_health(rt::Health::kDegraded, "image seq " + std::to_string(image.header.seq) + " on " +
-                                          config_.input_channel + ": " + out.status_text);
+    set_health(rt::Health::kError, "image seq " + std::to_string(image.header.seq) + " on " + config_.input_channel +
+                                       ": " + out.status_text);
   } else {
     std::vector<PixelObservation> obs;
     for (const fruit_t& f : out.fruits) obs.push_back({f.u_px, f.v_px, f.diameter_px});

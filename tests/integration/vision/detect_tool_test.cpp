@@ -1,0 +1,133 @@
+// harvest-detect on image files: one JSON line per image, overlays, an
+// error naming each unreadable image with a non-zero exit while the others
+// are still processed; evaluation mode against a boxes CSV.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <regex>
+#include <sstream>
+
+#include "test_support.hpp"
+
+namespace ht = harvest::testing;
+using namespace std::chrono_literals;
+
+namespace {
+
+cv::Mat3b leaves(int w, int h) { return cv::Mat3b(h, w, cv::Vec3b(40, 120, 60)); }
+void fruit(cv::Mat3b& img, int cx, int cy, int r) { cv::circle(img, {cx, cy}, r, cv::Scalar(30, 140, 230), -1); }
+
+std::vector<std::string> lines_starting(const std::string& text, const std::string& prefix) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(prefix, 0) == 0) out.push_back(line);
+  return out;
+}
+
+std::vector<double> numbers_of(const std::string& line, const std::string& key) {
+  std::vector<double> out;
+  const std::regex re("\"" + key + "\": (-?[0-9.]+)");
+  for (auto it = std::sregex_iterator(line.begin(), line.end(), re); it != std::sregex_iterator(); ++it)
+    out.push_back(std::stod((*it)[1]));
+  return out;
+}
+
+class DetectTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    cv::Mat3b a = leaves(640, 480);
+    fruit(a, 200, 150, 40);
+    ASSERT_TRUE(cv::imwrite((dir / "a.png").string(), a));
+    cv::Mat3b b = leaves(320, 240);
+    fruit(b, 80, 60, 20);
+    fruit(b, 240, 180, 30);
+    ASSERT_TRUE(cv::imwrite((dir / "b.jpg").string(), b, {cv::IMWRITE_JPEG_QUALITY, 95}));
+    std::ofstream(dir / "broken.png") << "not an image";
+  }
+  int run(const std::vector<std::string>& args, std::string* output) {
+    std::vector<std::string> argv{ht::bin("harvest-detect")};
+    argv.insert(argv.end(), args.begin(), args.end());
+    ht::ChildProcess p(argv, dir / "out.txt");
+    const int rc = p.wait(20s);
+    *output = p.output();
+    return rc;
+  }
+  ht::TempDir dir;
+};
+
+TEST_F(DetectTool, JsonLinePerImageOverlaysAndErrorsForUnreadableImages) {
+  const std::string a = (dir / "a.png").string(), b = (dir / "b.jpg").string(), broken = (dir / "broken.png").string(),
+                    missing = (dir / "missing.png").string();
+  std::string out;
+  EXPECT_EQ(run({"--config", ht::source_path("config/vision/detector-fixed.yaml"), "--overlay",
+                 (dir / "overlays").string(), a, broken, b, missing},
+                &out),
+            1)
+      << out;
+  EXPECT_NE(out.find("cannot read image " + broken), std::string::npos) << out;
+  EXPECT_NE(out.find("cannot read image " + missing), std::string::npos) << out;
+  const auto json = lines_starting(out, "{\"image\": ");
+  ASSERT_EQ(json.size(), 2u) << out;  // the readable ones, in order
+  EXPECT_EQ(json[0].rfind("{\"image\": \"" + a + "\", \"width\": 640, \"height\": 480, \"fruits\": [", 0), 0u)
+      << json[0];
+  EXPECT_EQ(json[1].rfind("{\"image\": \"" + b + "\", \"width\": 320, \"height\": 240, \"fruits\": [", 0), 0u)
+      << json[1];
+  const auto u0 = numbers_of(json[0], "u"), v0 = numbers_of(json[0], "v"), d0 = numbers_of(json[0], "diameter_px");
+  ASSERT_EQ(u0.size(), 1u);
+  EXPECT_NEAR(u0[0], 200, 0.5);
+  EXPECT_NEAR(v0[0], 150, 0.5);
+  EXPECT_NEAR(d0[0], 81, 0.02 * 81);
+  const auto z0 = numbers_of(json[0], "depth_m");
+  ASSERT_EQ(z0.size(), 1u);
+  EXPECT_NEAR(z0[0], 0.5 * (833.57 + 767.02) * 0.0725 / d0[0], 2e-4);  // eq. 6-11 at the calibrated size
+  EXPECT_NE(json[0].find("\"selected\": true"), std::string::npos);
+  const auto u1 = numbers_of(json[1], "u");
+  ASSERT_EQ(u1.size(), 2u);
+  EXPECT_EQ(numbers_of(json[1], "confidence").size(), 2u);
+  // Exactly one fruit is the target.
+  std::size_t selected = 0;
+  for (std::size_t p = json[1].find("\"selected\": true"); p != std::string::npos;
+       p = json[1].find("\"selected\": true", p + 1))
+    ++selected;
+  EXPECT_EQ(selected, 1u);
+
+  // Overlays: the image with something drawn on it, for the readable images only.
+  const cv::Mat3b overlay = cv::imread((dir / "overlays" / "a_overlay.png").string());
+  ASSERT_FALSE(overlay.empty());
+  EXPECT_GT(cv::norm(overlay, cv::imread(a), cv::NORM_L1), 0);
+  EXPECT_TRUE(std::filesystem::exists(dir / "overlays" / "b_overlay.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "overlays" / "broken_overlay.png"));
+
+  EXPECT_EQ(run({a}, &out), 0) << out;  // all readable: success
+  EXPECT_EQ(run({}, &out), 2) << out;   // nothing to do: usage error
+}
+
+TEST_F(DetectTool, EvaluationCountsOneToOneMatches) {
+  // a.png: its fruit boxed. b.jpg: one fruit boxed, one not, and a box with no fruit.
+  std::ofstream(dir / "boxes.csv") << "image,img_w,img_h,x1,y1,x2,y2\n"
+                                   << "a.png,640,480,160,110,240,190\n"
+                                   << "b.jpg,320,240,58,38,102,82\n"
+                                   << "b.jpg,320,240,150,10,190,50\n"
+                                   << "broken.png,10,10,0,0,5,5\n";
+  std::string out;
+  EXPECT_EQ(run({"--evaluate", (dir / "boxes.csv").string(), "--images-dir", dir.path().string()}, &out), 1) << out;
+  EXPECT_NE(out.find("cannot read image " + (dir / "broken.png").string()), std::string::npos) << out;
+  const auto per_image = lines_starting(out, "{\"image\": ");
+  ASSERT_EQ(per_image.size(), 2u) << out;
+  EXPECT_NE(per_image[1].find("\"boxes\": 2, \"fruits\": 2, \"true_positives\": 1"), std::string::npos) << per_image[1];
+  const auto summary = lines_starting(out, "{\"summary\": ");
+  ASSERT_EQ(summary.size(), 1u) << out;
+  EXPECT_NE(summary[0].find("\"images\": 2, \"boxes\": 3, \"detections\": 3, \"true_positives\": 2"), std::string::npos)
+      << summary[0];
+  EXPECT_NEAR(numbers_of(summary[0], "precision").at(0), 2.0 / 3, 1e-4);
+  EXPECT_NEAR(numbers_of(summary[0], "recall").at(0), 2.0 / 3, 1e-4);
+
+  std::ofstream(dir / "bad.csv") << "image,img_w,img_h,x1,y1,x2,y2\na.png,640,480,1,2\n";
+  EXPECT_EQ(run({"--evaluate", (dir / "bad.csv").string()}, &out), 2) << out;
+  EXPECT_NE(out.find("bad.csv:2"), std::string::npos) << out;
+}
+
+}  // namespace

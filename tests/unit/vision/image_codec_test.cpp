@@ -1,0 +1,140 @@
+// image_t <-> cv::Mat: round trips of every encoding, and every malformed
+// frame is an error with a clear text, never a crash or an over-read.
+#include "vision/image_codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+namespace harvest::vision {
+namespace {
+
+cv::Mat3b test_image(int w = 64, int h = 48) {
+  cv::Mat3b img(h, w);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) img(y, x) = cv::Vec3b(static_cast<uint8_t>(x * 4), static_cast<uint8_t>(y * 5), 90);
+  return img;
+}
+
+TEST(ImageCodec, RawRoundTripIsExact) {
+  const cv::Mat3b img = test_image();
+  image_t m{};
+  encode_image(img, false, 90, m);
+  EXPECT_EQ(m.encoding, +image_t::ENCODING_BGR8);
+  EXPECT_EQ(m.stride, 64 * 3);
+  EXPECT_EQ(m.size, 64 * 48 * 3);
+  const DecodedImage d = decode_image(m);
+  ASSERT_TRUE(d.ok()) << d.error;
+  EXPECT_EQ(cv::norm(d.bgr, img, cv::NORM_INF), 0);
+}
+
+TEST(ImageCodec, PaddedStrideAndMono) {
+  const cv::Mat3b img = test_image();
+  image_t m{};
+  encode_image(img, false, 90, m);
+  // Re-pack with 8 padding bytes per row.
+  const int row = 64 * 3, stride = row + 8;
+  std::vector<uint8_t> padded(static_cast<std::size_t>(stride) * 48, 0xAB);
+  for (int y = 0; y < 48; ++y)
+    std::copy_n(m.data.begin() + y * row, row, padded.begin() + static_cast<std::ptrdiff_t>(y) * stride);
+  m.stride = stride;
+  m.data = padded;
+  m.size = static_cast<int32_t>(padded.size());
+  DecodedImage d = decode_image(m);
+  ASSERT_TRUE(d.ok()) << d.error;
+  EXPECT_EQ(cv::norm(d.bgr, img, cv::NORM_INF), 0);
+
+  cv::Mat1b grey;
+  cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
+  encode_image(grey, false, 90, m);
+  EXPECT_EQ(m.encoding, +image_t::ENCODING_MONO8);
+  d = decode_image(m);
+  ASSERT_TRUE(d.ok()) << d.error;
+  cv::Mat3b expected;
+  cv::cvtColor(grey, expected, cv::COLOR_GRAY2BGR);
+  EXPECT_EQ(cv::norm(d.bgr, expected, cv::NORM_INF), 0);
+}
+
+TEST(ImageCodec, JpegRoundTripIsClose) {
+  const cv::Mat3b img = test_image(160, 120);
+  image_t m{};
+  encode_image(img, true, 95, m);
+  EXPECT_EQ(m.encoding, +image_t::ENCODING_JPEG);
+  EXPECT_EQ(m.width, 160);
+  EXPECT_EQ(m.height, 120);
+  EXPECT_LT(m.size, 160 * 120 * 3);
+  const DecodedImage d = decode_image(m);
+  ASSERT_TRUE(d.ok()) << d.error;
+  EXPECT_LT(cv::norm(d.bgr, img, cv::NORM_L1) / (160 * 120 * 3), 3.0);  // mean abs error per channel
+  // Zero padding after the end-of-image marker (some cameras) is accepted.
+  m.data.resize(m.data.size() + 16, 0);
+  m.size = static_cast<int32_t>(m.data.size());
+  EXPECT_TRUE(decode_image(m).ok()) << decode_image(m).error;
+}
+
+std::string error_of(image_t m) { return decode_image(m).error; }
+
+TEST(ImageCodec, MalformedFramesAreErrorsNamingTheProblem) {
+  image_t raw{};
+  encode_image(test_image(), false, 90, raw);
+  image_t jpeg{};
+  encode_image(test_image(), true, 90, jpeg);
+
+  image_t m = raw;
+  m.width = 0;
+  EXPECT_NE(error_of(m).find("bad image size 0x48"), std::string::npos);
+  m = raw;
+  m.height = -5;
+  EXPECT_NE(error_of(m).find("bad image size"), std::string::npos);
+  m = raw;
+  m.width = 100000;
+  EXPECT_NE(error_of(m).find("bad image size"), std::string::npos);
+  m = raw;
+  m.encoding = 9;
+  EXPECT_NE(error_of(m).find("unknown encoding 9"), std::string::npos);
+  m = raw;
+  m.size += 1;
+  EXPECT_NE(error_of(m).find("does not match"), std::string::npos);
+  m = raw;
+  m.data.resize(m.data.size() - 1);
+  m.size = static_cast<int32_t>(m.data.size());
+  EXPECT_NE(error_of(m).find("truncated 64x48 frame"), std::string::npos);
+  m = raw;
+  m.stride = 10;
+  EXPECT_NE(error_of(m).find("stride 10 shorter"), std::string::npos);
+  m = raw;
+  m.encoding = image_t::ENCODING_MONO8;  // 1 byte/px: data is larger than needed, which is fine
+  EXPECT_TRUE(decode_image(m).ok());
+
+  m = jpeg;
+  m.data.clear();
+  m.size = 0;
+  EXPECT_FALSE(error_of(m).empty());
+  m = jpeg;
+  m.data[0] = 0;
+  EXPECT_NE(error_of(m).find("not a JPEG stream"), std::string::npos);
+  m = jpeg;
+  m.data.resize(m.data.size() * 2 / 3);
+  m.size = static_cast<int32_t>(m.data.size());
+  EXPECT_NE(error_of(m).find("truncated JPEG"), std::string::npos);
+  m = jpeg;
+  for (std::size_t i = 2; i + 2 < m.data.size(); ++i) m.data[i] = static_cast<uint8_t>(i * 53);
+  EXPECT_NE(error_of(m).find("JPEG"), std::string::npos);
+  m = jpeg;
+  m.width = 32;  // header disagrees with the stream
+  EXPECT_NE(error_of(m).find("JPEG decodes to 64x48"), std::string::npos);
+}
+
+TEST(ImageCodec, RoiDefaultsToTheWholeImage) {
+  image_t m{};
+  encode_image(test_image(), false, 90, m);
+  EXPECT_EQ(image_roi(m), cv::Rect2d(0, 0, 64, 48));
+  m.roi_px[0] = 8;
+  m.roi_px[1] = 6;
+  m.roi_px[2] = 32;
+  m.roi_px[3] = 24;
+  EXPECT_EQ(image_roi(m), cv::Rect2d(8, 6, 32, 24));
+}
+
+}  // namespace
+}  // namespace harvest::vision
