@@ -2,6 +2,8 @@
 #include <libserialport.h>
 #include <poll.h>
 
+#include <filesystem>
+
 #include "endeffector/transport.hpp"
 
 namespace harvest::endeffector {
@@ -45,11 +47,16 @@ std::string last_error() {
 
 std::string error_text(sp_return r) {
   switch (r) {
-    case SP_ERR_FAIL: return last_error();
-    case SP_ERR_ARG: return "invalid argument (does the device exist?)";
-    case SP_ERR_MEM: return "out of memory";
-    case SP_ERR_SUPP: return "not supported by this device";
-    default: return "error " + std::to_string(static_cast<int>(r));
+    case SP_ERR_FAIL:
+      return last_error();
+    case SP_ERR_ARG:
+      return "invalid argument (does the device exist?)";
+    case SP_ERR_MEM:
+      return "out of memory";
+    case SP_ERR_SUPP:
+      return "not supported by this device";
+    default:
+      return "error " + std::to_string(static_cast<int>(r));
   }
 }
 
@@ -62,6 +69,9 @@ class SerialStream final : public ByteStream {
 
   void open() override {
     close();
+    std::error_code ec;
+    if (!std::filesystem::exists(o_.port, ec))  // libserialport only says "invalid argument"
+      throw TransportError("serial port '" + o_.port + "': no such device (is the adapter plugged in?)");
     check(sp_get_port_by_name(o_.port.c_str(), &port_), "no such serial port");
     check(sp_open(port_, SP_MODE_READ_WRITE), "cannot open");
     opened_ = true;

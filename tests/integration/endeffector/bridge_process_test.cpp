@@ -382,7 +382,8 @@ TEST(EeBridgeProcess, SerialPortThatDoesNotExistIsAClearRepeatedError) {
   ASSERT_TRUE(ht::eventually(
       [&] {
         return any_since(bus.statuses(), 0, [](const process_status_t& s) {
-          return s.state == kPsError && s.message.find("serial port '/dev/ttyNOPE'") != std::string::npos;
+          return s.state == kPsError &&
+                 s.message.find("serial port '/dev/ttyNOPE': no such device") != std::string::npos;
         });
       },
       10s))
