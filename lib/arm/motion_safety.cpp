@@ -1,6 +1,7 @@
 #include "arm/motion_safety.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace harvest::arm {
 
@@ -27,11 +28,14 @@ ClippedTwist clip_twist(const kinematics::Twist& twist, const Eigen::Vector3d& t
   }
   static const char* kAxis[] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
-    const double next = tcp[a] + v[a] * dt;
-    if ((v[a] > 0 && next > workspace.max[a]) || (v[a] < 0 && next < workspace.min[a])) {
-      // Allow exactly reaching the boundary, never crossing it.
-      const double room = v[a] > 0 ? std::max(0.0, workspace.max[a] - tcp[a]) : std::min(0.0, workspace.min[a] - tcp[a]);
-      v[a] = room / dt;
+    if (v[a] == 0.0) continue;
+    // Distance to the face the motion heads for (0 if already on or past it).
+    const double room = std::max(0.0, v[a] > 0 ? workspace.max[a] - tcp[a] : tcp[a] - workspace.min[a]);
+    // At most reach the face within dt, and no faster than one can still
+    // brake to rest at it with the linear acceleration limit.
+    const double allowed = std::min(room / dt, std::sqrt(2.0 * limits.linear_acceleration * room));
+    if (std::abs(v[a]) > allowed) {
+      v[a] = std::copysign(allowed, v[a]);
       out.clipped = true;
       out.reason = std::string("workspace boundary in ") + kAxis[a];
     }

@@ -37,9 +37,11 @@ struct ClippedTwist {
   std::string reason;  // why, for the log and robot_state_t.fault_text
 };
 
-// Scales a twist down to the speed limits (direction kept) and removes the
-// linear velocity components that would carry the tool out of the workspace
-// within `dt` (motion along or back into the workspace stays allowed).
+// Scales a twist down to the speed limits (direction kept) and slows the
+// linear velocity components heading for a workspace face so the tool
+// reaches it within `dt` at most and can still brake to rest at it with
+// `limits.linear_acceleration` (motion along or back into the workspace
+// stays allowed).
 ClippedTwist clip_twist(const kinematics::Twist& twist, const Eigen::Vector3d& tcp, const Workspace& workspace,
                         const MotionLimits& limits, double dt);
 

@@ -155,7 +155,8 @@ void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
     case harvest::robot_command_t::TYPE_JOINT_GOAL: {
       if (cmd.num_joints != n) return refuse(cmd, "joint goal has " + std::to_string(cmd.num_joints) + " joints");
       const Eigen::VectorXd goal = Eigen::Map<const Eigen::VectorXd>(cmd.joint_goal.data(), n);
-      if (!goal.allFinite() || !config_.model.within_limits(goal)) return refuse(cmd, "joint goal outside joint limits");
+      if (!goal.allFinite() || !config_.model.within_limits(goal))
+        return refuse(cmd, "joint goal outside joint limits");
       if (!config_.workspace.contains(kinematics::tool_pose(config_.model, goal).translation()))
         return refuse(cmd, "joint goal puts the tool outside the workspace");
       if (active_ == Active::kJointGoal && cmd.goal_id == goal_id_) break;
@@ -230,12 +231,15 @@ Eigen::VectorXd RobotLinkNode::desired_velocity(double dt) {
   const Eigen::Isometry3d tool = kinematics::tool_pose(config_.model, q_);
   kinematics::Twist v = kinematics::Twist::Zero();
   switch (active_) {
-    case Active::kNone: return qd;
+    case Active::kNone:
+      return qd;
     case Active::kJointGoal: {
       const double t = rt::to_seconds(now() - traj_start_);
       return joint_traj_->velocity(t) + config_.joint_gain * (joint_traj_->position(t) - q_);
     }
-    case Active::kTwist: v = twist_; break;
+    case Active::kTwist:
+      v = twist_;
+      break;
     case Active::kPoseGoal: {
       const double t = rt::to_seconds(now() - traj_start_);
       const kinematics::Twist e = kinematics::pose_error(pose_traj_->pose(t), tool);
@@ -258,6 +262,7 @@ Eigen::VectorXd RobotLinkNode::desired_velocity(double dt) {
 void RobotLinkNode::tick() {
   const Micros t = now();
   master_->drain(t);
+  master_->check_timeouts(t);  // a lost drive stops this period's commands, not the next one's
   const double dt = rt::to_seconds(config_.can.sync_period);
   const int n = config_.model.dof();
 
@@ -323,13 +328,20 @@ void RobotLinkNode::publish_state(const Eigen::VectorXd& cmd, Micros sampled) {
   const bool enabled = master_->all_in(Cia402State::kOperationEnabled);
   const bool moving = cmd.norm() > 1e-9 || qd_.norm() > 1e-3;
   const bool fresh = supervisor_.command_fresh(now());
-  if (supervisor_.estopped()) s.mode = harvest::robot_state_t::MODE_ESTOP;
-  else if (supervisor_.faulted()) s.mode = harvest::robot_state_t::MODE_FAULT;
-  else if (shutting_down_ && !enabled) s.mode = harvest::robot_state_t::MODE_DISABLED;
-  else if (!enabled) s.mode = harvest::robot_state_t::MODE_ENABLING;
-  else if (moving && fresh && active_ != Active::kNone) s.mode = harvest::robot_state_t::MODE_MOVING;
-  else if (moving) s.mode = harvest::robot_state_t::MODE_STOPPING;
-  else s.mode = harvest::robot_state_t::MODE_IDLE;
+  if (supervisor_.estopped())
+    s.mode = harvest::robot_state_t::MODE_ESTOP;
+  else if (supervisor_.faulted())
+    s.mode = harvest::robot_state_t::MODE_FAULT;
+  else if (shutting_down_ && !enabled)
+    s.mode = harvest::robot_state_t::MODE_DISABLED;
+  else if (!enabled)
+    s.mode = harvest::robot_state_t::MODE_ENABLING;
+  else if (moving && fresh && active_ != Active::kNone)
+    s.mode = harvest::robot_state_t::MODE_MOVING;
+  else if (moving)
+    s.mode = harvest::robot_state_t::MODE_STOPPING;
+  else
+    s.mode = harvest::robot_state_t::MODE_IDLE;
 
   s.num_joints = n;
   s.joint_position.assign(q_.data(), q_.data() + n);

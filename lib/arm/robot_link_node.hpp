@@ -8,7 +8,6 @@
 #include <harvest/operator_command_t.hpp>
 #include <harvest/robot_command_t.hpp>
 #include <harvest/robot_state_t.hpp>
-
 #include <memory>
 #include <optional>
 #include <string>

@@ -5,7 +5,7 @@
 
 namespace harvest::arm {
 namespace {
-constexpr double kPeakSpeed = 1.875;         // max of ds/dtau
+constexpr double kPeakSpeed = 1.875;          // max of ds/dtau
 constexpr double kPeakAcceleration = 5.7735;  // max of d2s/dtau2 = 10 / sqrt(3)
 }  // namespace
 
@@ -65,8 +65,8 @@ JointTrajectory::JointTrajectory(const Eigen::VectorXd& start, const Eigen::Vect
                                  const Eigen::VectorXd& max_velocity, const Eigen::VectorXd& max_acceleration)
     : start_(start), goal_(goal) {
   for (Eigen::Index i = 0; i < start.size(); ++i)
-    scaling_.duration = std::max(scaling_.duration, QuinticScaling::duration_for(goal[i] - start[i], max_velocity[i],
-                                                                                 max_acceleration[i]));
+    scaling_.duration = std::max(
+        scaling_.duration, QuinticScaling::duration_for(goal[i] - start[i], max_velocity[i], max_acceleration[i]));
 }
 
 Eigen::VectorXd JointTrajectory::position(double t) const { return start_ + scaling_.s(t) * (goal_ - start_); }

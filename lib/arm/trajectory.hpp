@@ -15,9 +15,9 @@ struct QuinticScaling {
   double duration = 0.0;  // [s]
   // Shortest duration for distance d with speed and acceleration limits.
   static double duration_for(double distance, double max_speed, double max_acceleration);
-  double s(double t) const;     // 0..1
-  double ds(double t) const;    // [1/s]
-  double dds(double t) const;   // [1/s^2]
+  double s(double t) const;    // 0..1
+  double ds(double t) const;   // [1/s]
+  double dds(double t) const;  // [1/s^2]
 };
 
 // Straight line in position and a constant-axis rotation in orientation.

@@ -1,5 +1,6 @@
 #include "canopen/master.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -157,8 +158,15 @@ void Master::handle_frame(const CanFrame& f, Micros now) {
       d.last_tpdo = now;
       const bool faulty = d.state == Cia402State::kFault || d.state == Cia402State::kFaultReactionActive;
       const bool was_faulty = before == Cia402State::kFault || before == Cia402State::kFaultReactionActive;
-      if (faulty && (!was_faulty || !d.seen_pdo))
+      if (faulty && !d.seen_pdo) {
+        // Found faulted when the master starts: bringing every drive from
+        // whatever state it is in to operation enabled includes a fault
+        // reset (starting the master is the operator's act). Reported, not latched.
+        events_.push_back("joint " + std::to_string(i + 1) + " (node " + std::to_string(dc.node_id) + "): found in " +
+                          to_string(d.state) + " at start, resetting it");
+      } else if (faulty && !was_faulty) {
         latch(static_cast<std::size_t>(i), &DriveStatus::fault, std::string("drive state ") + to_string(d.state));
+      }
       d.seen_pdo = true;
     }
   } else if (fn == cob::kTpdo2) {
@@ -179,9 +187,7 @@ void Master::latch(std::size_t i, bool DriveStatus::*flag, const std::string& te
   events_.push_back(msg);
 }
 
-void Master::sync(Micros now) {
-  now_ = now;
-  sdo_.poll(now);
+void Master::check_timeouts(Micros now) {
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     DriveStatus& d = drives_[i];
     if (heartbeat_armed_[i] && now - d.last_heartbeat > config_.heartbeat_timeout)
@@ -190,6 +196,12 @@ void Master::sync(Micros now) {
         now - (d.seen_pdo ? d.last_tpdo : started_) > config_.pdo_timeout)
       latch(i, &DriveStatus::pdo_lost, "no PDO from the drive");
   }
+}
+
+void Master::sync(Micros now) {
+  now_ = now;
+  sdo_.poll(now);
+  check_timeouts(now);
   if (phase_ != MasterPhase::kRunning) return;
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     DriveStatus& d = drives_[i];
@@ -215,6 +227,11 @@ void Master::set_velocities(const std::vector<double>& v) {
 
 void Master::clear_faults() {
   for (auto& d : drives_) {
+    // A lost heartbeat or PDO gets a fresh timeout window from the reset on:
+    // a drive that came back just before it is not latched again at once,
+    // one that is still silent is latched again after the timeout.
+    if (d.heartbeat_lost) d.last_heartbeat = std::max(d.last_heartbeat, now_);
+    if (d.pdo_lost && d.seen_pdo) d.last_tpdo = std::max(d.last_tpdo, now_);
     d.fault = d.emcy = d.heartbeat_lost = d.pdo_lost = false;
     d.fault_text.clear();
   }

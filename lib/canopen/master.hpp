@@ -75,6 +75,9 @@ class Master {
   void handle_frame(const CanFrame& frame, Micros now);
   // Once per SYNC period: supervision, state machine, RPDOs, then SYNC.
   void sync(Micros now);
+  // Heartbeat and PDO timeouts only (sync() does this too); lets the caller
+  // see a lost drive before it computes the commands of this period.
+  void check_timeouts(Micros now);
 
   void set_goal(DriveGoal goal) { goal_ = goal; }
   DriveGoal goal() const { return goal_; }

@@ -133,6 +133,7 @@ void SimDrive::apply_rpdo(const CanFrame& f) {
 
 void SimDrive::on_sync(Micros now) {
   advance(now);
+  last_sync_ = now;
   for (const auto& f : pending_rpdo_) apply_rpdo(f);
   pending_rpdo_.clear();
   if (nmt_ == NmtState::kOperational) {
@@ -200,6 +201,9 @@ void SimDrive::advance(Micros now) {
     }
     if (state_ == Cia402State::kFaultReactionActive && velocity_ == 0.0) set_state(Cia402State::kFault);
   }
+  if (config_.sync_timeout_us > 0 && state_ == Cia402State::kOperationEnabled && last_sync_ >= 0 &&
+      now - last_sync_ > config_.sync_timeout_us)
+    inject_fault(0x8100);  // communication: the master is gone (or the cable is cut)
   const Micros period = Micros{od_.get(od::kHeartbeatProducer, 0)} * 1000;
   if (period > 0 && now >= next_heartbeat_) {
     if (heartbeat_enabled_) send(canopen::heartbeat_frame(config_.node_id, nmt_));

@@ -33,6 +33,10 @@ struct SimDriveConfig {
   double max_acceleration = 3.0;         // [rad/s^2] velocity following
   double quick_stop_deceleration = 6.0;  // [rad/s^2]
   double initial_position = 0.0;         // [rad]
+  // Communication watchdog, as real drives have (abort connection option):
+  // with torque on and no SYNC for this long the drive goes to fault
+  // reaction (ramp down) and Fault with error code 0x8100. 0 = off.
+  Micros sync_timeout_us = 100'000;
 };
 
 class SimDrive {
@@ -75,6 +79,7 @@ class SimDrive {
   std::vector<can::CanFrame> pending_rpdo_;  // synchronous RPDOs act at the next SYNC
   double position_ = 0.0, velocity_ = 0.0, target_velocity_ = 0.0;
   Micros last_advance_ = -1;
+  Micros last_sync_ = -1;
   Micros next_heartbeat_ = 0;
   bool booted_ = false;
   bool silent_ = false;

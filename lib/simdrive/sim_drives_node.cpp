@@ -38,6 +38,8 @@ SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
   c.drives = sim_drive_configs(model, drives_doc.root(), margin, qs);
   drives_doc.check_unused();
   c.step_us = root.get<int>("step_ms", 1, {1, 100}) * 1000;
+  const Micros sync_timeout = root.get<int>("sync_timeout_ms", 250, {0, 10000}) * 1000;
+  for (auto& d : c.drives) d.sync_timeout_us = sync_timeout;
   return c;
 }
 
@@ -65,14 +67,22 @@ void SimDrivesNode::on_fault(const harvest::sim_drive_fault_t& msg) {
     if (msg.joint != 0 && static_cast<int>(i) + 1 != msg.joint) continue;
     SimDrive& d = set_->drive(i);
     switch (msg.kind) {
-      case harvest::sim_drive_fault_t::KIND_FAULT: d.inject_fault(static_cast<uint16_t>(msg.error_code)); break;
-      case harvest::sim_drive_fault_t::KIND_HEARTBEAT_OFF: d.set_heartbeat_enabled(false); break;
-      case harvest::sim_drive_fault_t::KIND_SILENT: d.set_silent(true); break;
+      case harvest::sim_drive_fault_t::KIND_FAULT:
+        d.inject_fault(static_cast<uint16_t>(msg.error_code));
+        break;
+      case harvest::sim_drive_fault_t::KIND_HEARTBEAT_OFF:
+        d.set_heartbeat_enabled(false);
+        break;
+      case harvest::sim_drive_fault_t::KIND_SILENT:
+        d.set_silent(true);
+        break;
       case harvest::sim_drive_fault_t::KIND_RESTORE:
         d.set_silent(false);
         d.set_heartbeat_enabled(true);
         break;
-      default: spdlog::warn("SIM_DRIVE_FAULT kind {} unknown", msg.kind); return;
+      default:
+        spdlog::warn("SIM_DRIVE_FAULT kind {} unknown", msg.kind);
+        return;
     }
     spdlog::warn("injected fault kind {} into joint {}", msg.kind, i + 1);
   }

@@ -1,8 +1,11 @@
 // Motion safety of the robot link as pure logic: speed scaling and workspace
 // clipping of twists, and the supervisor's latches and command freshness.
+#include "arm/motion_safety.hpp"
+
 #include <gtest/gtest.h>
 
-#include "arm/motion_safety.hpp"
+#include <cmath>
+#include <limits>
 
 namespace harvest::arm {
 namespace {
@@ -38,7 +41,7 @@ TEST(ClipTwist, LinearSpeedIsScaledKeepingTheDirection) {
   EXPECT_NE(c.reason.find("linear speed"), std::string::npos) << c.reason;
   EXPECT_NEAR(c.twist.head<3>().norm(), 0.381, 1e-12);
   EXPECT_NEAR(c.twist[0] / c.twist[1], 0.75, 1e-12);  // same direction
-  EXPECT_DOUBLE_EQ(c.twist[3], 0.1);                   // angular part untouched
+  EXPECT_DOUBLE_EQ(c.twist[3], 0.1);                  // angular part untouched
 }
 
 TEST(ClipTwist, AngularSpeedIsScaledKeepingTheAxis) {
@@ -64,6 +67,19 @@ TEST(ClipTwist, WorkspaceBoundaryStopsOnlyTheOutwardComponent) {
   EXPECT_NEAR(tcp.x() + c.twist[0] * dt, 1.0, 1e-12);  // reaches the face, does not cross it
   EXPECT_DOUBLE_EQ(c.twist[1], 0.1);                   // motion along the face stays
   EXPECT_DOUBLE_EQ(c.twist[2], -0.1);
+}
+
+TEST(ClipTwist, SlowsDownSoItCanBrakeBeforeTheBoundary) {
+  MotionLimits lim;
+  lim.linear_acceleration = 0.5;
+  // 10 cm from the -y face: at most sqrt(2 * 0.5 * 0.1) = 0.316 m/s toward it.
+  const Eigen::Vector3d tcp(0.0, -0.9, 0.0);
+  const ClippedTwist c = clip_twist(twist(0.0, -0.381, 0.0), tcp, unit_box(), lim, 0.01);
+  EXPECT_TRUE(c.clipped);
+  EXPECT_NEAR(c.twist[1], -std::sqrt(0.1), 1e-12);
+  EXPECT_NE(c.reason.find("workspace boundary in y"), std::string::npos) << c.reason;
+  // Away from that face, full speed.
+  EXPECT_FALSE(clip_twist(twist(0.0, 0.381, 0.0), tcp, unit_box(), lim, 0.01).clipped);
 }
 
 TEST(ClipTwist, MotionBackIntoTheWorkspaceIsAllowed) {

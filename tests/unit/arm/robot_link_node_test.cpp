@@ -1,19 +1,20 @@
 // RobotLinkNode on a manual clock against simulated CiA 402 drives
 // (lib/simdrive) on the in-memory CAN bus: motion, limits, and every stop path
 // of the motion safety, observed through ROBOT_STATE and the drives' truth.
+#include "arm/robot_link_node.hpp"
+
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
 #include <harvest/emergency_stop_t.hpp>
 #include <harvest/operator_command_t.hpp>
 #include <harvest/robot_command_t.hpp>
 #include <harvest/robot_state_t.hpp>
-
-#include <cmath>
-#include <functional>
 #include <memory>
 
-#include "arm/robot_link_node.hpp"
 #include "can/memory_bus.hpp"
+#include "canopen/protocol.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
@@ -56,13 +57,17 @@ RobotLinkConfig default_config() {
 // every 1 ms, the node's timers (SYNC every 10 ms) fire at their due times.
 class Rig final : public rt::Dispatcher {
  public:
-  explicit Rig(RobotLinkConfig config) : rt::Dispatcher(""), model_(config.model) {
-    auto& link_end = wire_.attach();
+  // `before_link` runs on the drives before the robot link is on the bus.
+  explicit Rig(RobotLinkConfig config, const std::function<void(simdrive::SimDriveSet&)>& before_link = {})
+      : rt::Dispatcher(""), model_(config.model) {
     auto& drive_end = wire_.attach();
     auto drives_doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/drives_k1207i.yaml");
     auto dc = simdrive::sim_drive_configs(model_, drives_doc.root(), 1.5, 3.0);
-    for (std::size_t i = 0; i < dc.size(); ++i) dc[i].initial_position = config.model.home[static_cast<Eigen::Index>(i)];
+    for (std::size_t i = 0; i < dc.size(); ++i)
+      dc[i].initial_position = config.model.home[static_cast<Eigen::Index>(i)];
     drives_ = std::make_unique<simdrive::SimDriveSet>(drive_end, dc);
+    if (before_link) before_link(*drives_);
+    auto& link_end = wire_.attach();
     node_ = std::make_unique<RobotLinkNode>(std::move(config), std::make_unique<BusRef>(link_end));
     add(*node_);
     attach_all();
@@ -101,15 +106,16 @@ class Rig final : public rt::Dispatcher {
     return pred();
   }
 
-  bool enabled_and_idle() const {
-    return !states_.empty() && states_.back().mode == +robot_state_t::MODE_IDLE;
+  bool enabled_and_idle() const { return !states_.empty() && states_.back().mode == +robot_state_t::MODE_IDLE; }
+  void start() {
+    ASSERT_TRUE(run_until([this] { return enabled_and_idle(); }, 5.0)) << describe_last();
   }
-  void start() { ASSERT_TRUE(run_until([this] { return enabled_and_idle(); }, 5.0)) << describe_last(); }
 
   std::string describe_last() const {
     if (states_.empty()) return "no ROBOT_STATE yet";
     const auto& s = states_.back();
-    return "mode " + std::to_string(s.mode) + " flags " + std::to_string(s.fault_flags) + " text '" + s.fault_text + "'";
+    return "mode " + std::to_string(s.mode) + " flags " + std::to_string(s.fault_flags) + " text '" + s.fault_text +
+           "'";
   }
 
   RobotLinkNode& node() { return *node_; }
@@ -228,6 +234,36 @@ TEST(RobotLinkNode, EnablesAllDrivesAndPublishesToolAndCameraPoses) {
   EXPECT_GT(tool_r.col(2).y(), 0.99);
 }
 
+TEST(RobotLinkNode, BringsDrivesFromAnyStateToOperationEnabled) {
+  // A previous run left the drives operational: one enabled, one quick-stopped, one faulted.
+  Rig rig(default_config(), [](simdrive::SimDriveSet& d) {
+    using canopen::controlword::kEnableOperation;
+    const auto all = [&](const can::CanFrame& f) {
+      for (std::size_t i = 0; i < d.size(); ++i) d.drive(i).handle_frame(f, kStart);
+    };
+    d.advance(kStart);
+    all(canopen::nmt_frame(canopen::NmtCommand::kStart, 0));
+    for (uint8_t node : {1, 2}) {
+      for (uint16_t cw : {canopen::controlword::kShutdown, canopen::controlword::kSwitchOn, kEnableOperation}) {
+        d.drive(node - 1u).handle_frame(
+            canopen::sdo::initiate_download_expedited(node, canopen::od::kControlword, 0, cw, 2), kStart);
+        all(canopen::sync_frame());
+      }
+    }
+    d.drive(1).handle_frame(
+        canopen::sdo::initiate_download_expedited(2, canopen::od::kControlword, 0, canopen::controlword::kQuickStop, 2),
+        kStart);
+    all(canopen::sync_frame());
+    d.drive(3).inject_fault(0x5114);
+  });
+  ASSERT_EQ(rig.drives().drive(0).state(), canopen::Cia402State::kOperationEnabled);
+  ASSERT_EQ(rig.drives().drive(1).state(), canopen::Cia402State::kQuickStopActive);
+  ASSERT_EQ(rig.drives().drive(3).state(), canopen::Cia402State::kFault);
+  rig.start();
+  EXPECT_TRUE(all_drives_in(rig.last(), canopen::Cia402State::kOperationEnabled)) << rig.describe_last();
+  EXPECT_EQ(rig.last().fault_flags, 0) << rig.last().fault_text;
+}
+
 TEST(RobotLinkNode, TwistMovesTheToolAtTheCommandedVelocity) {
   Rig rig(default_config());
   rig.start();
@@ -270,14 +306,13 @@ TEST(RobotLinkNode, StaleCommandGivesAControlledStopNotAFault) {
   cmd.validity_us = 100'000;
   rig.run(0.5, every_20ms(rig, cmd));
   ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  rig.inject(ch::kRobotCommand, cmd);  // the last one
   const std::size_t moving_until = rig.states().size();
-  const rt::Micros last_cmd_time = rig.now() - 1000 * ((rig.now() - kStart) / 1000 % 20);  // approx., checked below
-  (void)last_cmd_time;
   // Commands stop arriving.
   rig.run(0.09);
   EXPECT_FALSE(rig.last().command_stale) << "still within the 100 ms validity";
   EXPECT_NE(rig.last().joint_velocity_cmd, std::vector<double>(7, 0.0));
-  rig.run(0.03);
+  rig.run(0.02);
   EXPECT_TRUE(rig.last().command_stale);
   EXPECT_TRUE(rig.last().fault_flags & kFlagCommandStale);
   ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_IDLE; }, 2.0)) << rig.describe_last();
@@ -332,7 +367,10 @@ void expect_fault_stop(const std::function<void(Rig&)>& inject, int32_t flag, co
   rig.run(0.5, cmd);
   EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_FAULT) << "latched";
   EXPECT_LT((position(rig.last().tool_pose) - held).norm(), 1e-6);
-  if (repair) repair(rig);
+  if (repair) {
+    repair(rig);
+    rig.run(0.1, cmd);  // whatever the drive says when it is back is seen before the reset
+  }
   rig.inject(ch::kOperatorCommand, reset_fault());
   ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_MOVING; }, 2.0, cmd))
       << rig.describe_last();
@@ -364,8 +402,8 @@ TEST(RobotLinkNode, HeartbeatLossStopsTheArm) {
 }
 
 TEST(RobotLinkNode, PdoLossStopsTheArm) {
-  expect_fault_stop([](Rig& r) { r.drives().drive(0).set_silent(true); }, kFlagPdoLost,
-                    "joint 1 (node 1): no PDO", [](Rig& r) { r.drives().drive(0).set_silent(false); });
+  expect_fault_stop([](Rig& r) { r.drives().drive(0).set_silent(true); }, kFlagPdoLost, "joint 1 (node 1): no PDO",
+                    [](Rig& r) { r.drives().drive(0).set_silent(false); });
 }
 
 TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {
@@ -399,15 +437,17 @@ TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {
 }
 
 TEST(RobotLinkNode, LinearSpeedIsLimitedAndReported) {
-  Rig rig(default_config());
+  RobotLinkConfig c = default_config();
+  c.limits.linear_speed = 0.2;  // well within what the joints can do here
+  Rig rig(std::move(c));
   rig.start();
-  const auto cmd = every_20ms(rig, twist_command(0.0, 0.0, 1.0));  // 1 m/s asked, 0.381 allowed
+  const auto cmd = every_20ms(rig, twist_command(0.0, 0.0, 1.0));  // 1 m/s asked, 0.2 allowed
   rig.run(0.3, cmd);
   const robot_state_t a = rig.last();
   rig.run(0.5, cmd);
   const robot_state_t b = rig.last();
   const Eigen::Vector3d v = measured_velocity(a, b);
-  EXPECT_NEAR(v.z(), 0.381, 0.005) << v.transpose();
+  EXPECT_NEAR(v.z(), 0.2, 0.002) << v.transpose();
   EXPECT_LT(v.head<2>().norm(), 0.005);
   EXPECT_TRUE(b.fault_flags & kFlagLimited);
   EXPECT_GE(b.num_limit_events, 1);
@@ -463,7 +503,7 @@ TEST(RobotLinkNode, JointLimitsAreRespected) {
   rig.run(2.0, every_20ms(rig, twist_command(0.1 * dir.x(), 0.1 * dir.y(), 0.1 * dir.z())));
   EXPECT_TRUE(within);
   EXPECT_LE(highest, upper + 1e-6);
-  EXPECT_GT(highest, upper - 2e-3) << "the joint did reach its limit";
+  EXPECT_GT(highest, upper - 0.01) << "the joint did get to its limit (within one period's motion)";
   EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
 }
 
@@ -486,7 +526,8 @@ TEST(RobotLinkNode, PoseGoalIsReachedOnASmoothTrajectory) {
   cmd.pose_goal.orientation[3] = goal_q.z();
   double peak = 0.0;
   rig.on_state([&](const robot_state_t& s) {
-    peak = std::max(peak, Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm());
+    peak =
+        std::max(peak, Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm());
   });
   rig.run(3.0, every_20ms(rig, cmd));
   const auto& s = rig.last();

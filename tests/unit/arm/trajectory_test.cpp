@@ -1,10 +1,10 @@
 // Goal trajectories: minimum-jerk time scaling within the speed and
 // acceleration limits, start and end at rest, and arrival at the goal.
+#include "arm/trajectory.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "arm/trajectory.hpp"
 
 namespace harvest::arm {
 namespace {

@@ -1,0 +1,157 @@
+// One robot-link control step for the 7-axis K-1207i-class arm: forward
+// kinematics, Cartesian clipping, damped-least-squares IK with joint-limit
+// null space and limit locking, and joint velocity/acceleration/position
+// limits (what RobotLinkNode::tick computes besides CAN I/O), compared with the
+// obvious Eigen ways of mapping a twist to joint velocities: the pseudo-inverse
+// from JacobiSVD and from completeOrthogonalDecomposition (no damping, no
+// redundancy resolution, no limits). The counter `residual_mm_s` is the
+// tracking error |J qdot - twist| of each way, so speed is compared at equal work.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include "arm/motion_safety.hpp"
+#include "kinematics/diff_ik.hpp"
+
+namespace {
+
+using namespace harvest;
+
+const kinematics::ArmModel& model() {
+  static const kinematics::ArmModel m = kinematics::ArmModel::load(HARVEST_SOURCE_DIR "/config/arm/k1207i.yaml");
+  return m;
+}
+
+kinematics::Twist test_twist() {
+  kinematics::Twist t;
+  t << 0.05, 0.1, -0.08, 0.1, -0.2, 0.05;
+  return t;
+}
+
+// A few configurations around home so branch prediction and caches see variety.
+std::vector<Eigen::VectorXd> configurations() {
+  std::vector<Eigen::VectorXd> qs;
+  for (int k = 0; k < 16; ++k) {
+    Eigen::VectorXd q = model().home;
+    for (int i = 0; i < q.size(); ++i) q[i] += 0.05 * std::sin(1.3 * k + 0.7 * i);
+    qs.push_back(q);
+  }
+  return qs;
+}
+
+double residual(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, const kinematics::Twist& v) {
+  return (kinematics::tool_jacobian(model(), q) * qdot - v).norm() * 1000.0;
+}
+
+void BM_RobotLinkControlStep(benchmark::State& state) {
+  const auto qs = configurations();
+  const kinematics::Twist v = test_twist();
+  arm::Workspace ws;
+  const arm::MotionLimits lim;
+  const double dt = 0.01;
+  Eigen::VectorXd previous = Eigen::VectorXd::Zero(model().dof());
+  std::size_t k = 0;
+  double res = 0.0;
+  for (auto _ : state) {
+    const Eigen::VectorXd& q = qs[k++ % qs.size()];
+    const Eigen::Isometry3d tool = kinematics::tool_pose(model(), q);
+    const arm::ClippedTwist c = arm::clip_twist(v, tool.translation(), ws, lim, dt);
+    const Eigen::VectorXd want = kinematics::joint_velocity_within_limits(model(), q, c.twist, dt);
+    const auto out = kinematics::limit_joint_velocity(model(), q, previous, want, dt);
+    benchmark::DoNotOptimize(out.qdot.data());
+    if (k == 1) res = residual(q, want, v);
+  }
+  state.counters["residual_mm_s"] = res;
+}
+BENCHMARK(BM_RobotLinkControlStep);
+
+// Just our IK (DLS + null space, no limits), for a like-for-like comparison with the Eigen ways below.
+void BM_OurDlsIk(benchmark::State& state) {
+  const auto qs = configurations();
+  const kinematics::Twist v = test_twist();
+  std::size_t k = 0;
+  double res = 0.0;
+  for (auto _ : state) {
+    const Eigen::VectorXd& q = qs[k++ % qs.size()];
+    const Eigen::VectorXd qdot = kinematics::joint_velocity_for_twist(model(), q, v);
+    benchmark::DoNotOptimize(qdot.data());
+    if (k == 1) res = residual(q, qdot, v);
+  }
+  state.counters["residual_mm_s"] = res;
+}
+BENCHMARK(BM_OurDlsIk);
+
+void BM_EigenJacobiSvdPinv(benchmark::State& state) {
+  const auto qs = configurations();
+  const kinematics::Twist v = test_twist();
+  std::size_t k = 0;
+  double res = 0.0;
+  for (auto _ : state) {
+    const Eigen::VectorXd& q = qs[k++ % qs.size()];
+    const kinematics::Jacobian j = kinematics::tool_jacobian(model(), q);
+    const Eigen::VectorXd qdot = j.jacobiSvd(Eigen::ComputeThinU | Eigen::ComputeThinV).solve(v);
+    benchmark::DoNotOptimize(qdot.data());
+    if (k == 1) res = residual(q, qdot, v);
+  }
+  state.counters["residual_mm_s"] = res;
+}
+BENCHMARK(BM_EigenJacobiSvdPinv);
+
+void BM_EigenCodPinv(benchmark::State& state) {
+  const auto qs = configurations();
+  const kinematics::Twist v = test_twist();
+  std::size_t k = 0;
+  double res = 0.0;
+  for (auto _ : state) {
+    const Eigen::VectorXd& q = qs[k++ % qs.size()];
+    const kinematics::Jacobian j = kinematics::tool_jacobian(model(), q);
+    const Eigen::VectorXd qdot = j.completeOrthogonalDecomposition().pseudoInverse() * v;
+    benchmark::DoNotOptimize(qdot.data());
+    if (k == 1) res = residual(q, qdot, v);
+  }
+  state.counters["residual_mm_s"] = res;
+}
+BENCHMARK(BM_EigenCodPinv);
+
+// Damped least squares written the textbook way: J^T (J J^T + lambda^2 I)^-1 v with an LDLT of the 6x6.
+void BM_EigenDlsNormalEquations(benchmark::State& state) {
+  const auto qs = configurations();
+  const kinematics::Twist v = test_twist();
+  std::size_t k = 0;
+  double res = 0.0;
+  for (auto _ : state) {
+    const Eigen::VectorXd& q = qs[k++ % qs.size()];
+    const kinematics::Jacobian j = kinematics::tool_jacobian(model(), q);
+    const Eigen::Matrix<double, 6, 6> jjt = j * j.transpose() + 1e-6 * Eigen::Matrix<double, 6, 6>::Identity();
+    const Eigen::VectorXd qdot = j.transpose() * jjt.ldlt().solve(v);
+    benchmark::DoNotOptimize(qdot.data());
+    if (k == 1) res = residual(q, qdot, v);
+  }
+  state.counters["residual_mm_s"] = res;
+}
+BENCHMARK(BM_EigenDlsNormalEquations);
+
+void BM_ForwardKinematics(benchmark::State& state) {
+  const auto qs = configurations();
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const Eigen::Isometry3d t = kinematics::tool_pose(model(), qs[k++ % qs.size()]);
+    benchmark::DoNotOptimize(t.data());
+  }
+}
+BENCHMARK(BM_ForwardKinematics);
+
+void BM_Jacobian(benchmark::State& state) {
+  const auto qs = configurations();
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const kinematics::Jacobian j = kinematics::tool_jacobian(model(), qs[k++ % qs.size()]);
+    benchmark::DoNotOptimize(j.data());
+  }
+}
+BENCHMARK(BM_Jacobian);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,261 @@
+// harvest-robot-link and harvest-sim-drives as separate processes on the
+// python-can compatible udp_multicast virtual CAN bus, over real LCM: a twist
+// moves the tool at the commanded velocity; the watchdog, a drive fault, a
+// lost heartbeat and an emergency stop each stop the arm; both processes
+// start, run and stop cleanly.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <Eigen/Core>
+#include <atomic>
+#include <harvest/emergency_stop_t.hpp>
+#include <harvest/operator_command_t.hpp>
+#include <harvest/robot_command_t.hpp>
+#include <harvest/robot_state_t.hpp>
+#include <harvest/sim_drive_fault_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "runtime/channels.hpp"
+#include "test_support.hpp"
+
+namespace ht = harvest::testing;
+namespace ch = harvest::channels;
+using harvest::robot_state_t;
+using namespace std::chrono_literals;
+
+namespace {
+
+constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLost = 1 << 2, kFlagEstop = 1 << 4,
+                  kFlagCommandStale = 1 << 5;
+
+// A virtual CAN bus of its own for every test (ctest runs tests in parallel):
+// group and port from the pid, ports above the ephemeral range.
+std::string unique_can_bus() {
+  const int pid = static_cast<int>(::getpid());
+  return "udp_multicast:239.74.163." + std::to_string(10 + pid % 200) + ":" + std::to_string(61000 + (pid * 7) % 4000);
+}
+
+Eigen::Vector3d tool_position(const robot_state_t& s) {
+  return {s.tool_pose.position[0], s.tool_pose.position[1], s.tool_pose.position[2]};
+}
+
+class ArmProcesses : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    url_ = ht::unique_lcm_url();
+    bus_ = unique_can_bus();
+    lcm_ = std::make_unique<lcm::LCM>(url_);
+    ASSERT_TRUE(lcm_->good());
+    lcm_->subscribe(ch::kRobotState, &ArmProcesses::on_state, this);
+    listener_ = std::thread([this] {
+      while (!stop_) lcm_->handleTimeout(20);
+    });
+    drives_.emplace(std::vector<std::string>{ht::bin("harvest-sim-drives"), "--config",
+                                             ht::source_path("config/arm/sim_drives.yaml"), "--set", "bus=" + bus_,
+                                             "--lcm-url", url_, "--no-netcheck"},
+                    tmp_ / "sim-drives.log");
+    link_.emplace(std::vector<std::string>{ht::bin("harvest-robot-link"), "--config",
+                                           ht::source_path("config/arm/robot_link.yaml"), "--set", "bus=" + bus_,
+                                           "--lcm-url", url_, "--no-netcheck"},
+                  tmp_ / "robot-link.log");
+    ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_IDLE; }, 15s))
+        << "the drives never became enabled\n"
+        << outputs();
+  }
+
+  void TearDown() override {
+    stop_commands();
+    // Robot link first (it stops and disables the drives), then the drives.
+    if (link_) {
+      const bool was_running = link_->running();
+      const int rc = link_->stop(10s);
+      if (was_running) {
+        EXPECT_EQ(rc, 0) << outputs();
+        EXPECT_NE(link_->output().find("disabling the drives"), std::string::npos) << outputs();
+      }
+    }
+    if (drives_) {
+      const bool was_running = drives_->running();
+      const int rc = drives_->stop(10s);
+      if (was_running) EXPECT_EQ(rc, 0) << outputs();
+    }
+    stop_ = true;
+    if (listener_.joinable()) listener_.join();
+  }
+
+  std::string outputs() const {
+    return "--- robot link:\n" + (link_ ? link_->output() : "") + "--- sim drives:\n" +
+           (drives_ ? drives_->output() : "");
+  }
+
+  void on_state(const lcm::ReceiveBuffer*, const std::string&, const robot_state_t* s) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    states_.push_back(*s);
+  }
+
+  std::optional<robot_state_t> latest() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (states_.empty()) return std::nullopt;
+    return states_.back();
+  }
+  std::size_t count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return states_.size();
+  }
+  // The first state published after `index` that satisfies pred.
+  bool wait_for(const std::function<bool(const robot_state_t&)>& pred, std::chrono::milliseconds timeout,
+                std::size_t from = 0) {
+    return ht::eventually(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          for (std::size_t i = from; i < states_.size(); ++i)
+            if (pred(states_[i])) return true;
+          return false;
+        },
+        timeout);
+  }
+
+  template <class Msg>
+  void send(const std::string& channel, const Msg& m) {
+    std::lock_guard<std::mutex> lock(send_mutex_);
+    lcm_->publish(channel, &m);
+  }
+
+  // Sends a twist every 20 ms from a thread, as the servo controller does.
+  void start_twist(double vx, double vy, double vz) {
+    stop_commands();
+    commanding_ = true;
+    commander_ = std::thread([this, vx, vy, vz] {
+      harvest::robot_command_t c{};
+      c.type = harvest::robot_command_t::TYPE_TWIST;
+      c.validity_us = 100'000;
+      c.twist.linear[0] = vx;
+      c.twist.linear[1] = vy;
+      c.twist.linear[2] = vz;
+      int64_t seq = 0;
+      while (commanding_) {
+        c.header.seq = seq++;
+        send(ch::kRobotCommand, c);
+        std::this_thread::sleep_for(20ms);
+      }
+    });
+  }
+  void stop_commands() {
+    commanding_ = false;
+    if (commander_.joinable()) commander_.join();
+  }
+
+  void inject(int8_t kind, int32_t joint, int32_t error_code = 0) {
+    harvest::sim_drive_fault_t f{};
+    f.kind = kind;
+    f.joint = joint;
+    f.error_code = error_code;
+    send("SIM_DRIVE_FAULT", f);
+  }
+
+  // Moving, then `stop_it`; checks the arm stops (commanded and measured joint
+  // velocities zero, tool still) with `flag` set and `mode`.
+  void expect_stop(const std::function<void()>& stop_it, int32_t flag, int8_t mode) {
+    start_twist(0.0, 0.05, 0.05);
+    ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_MOVING; }, 5s))
+        << outputs();
+    std::this_thread::sleep_for(300ms);
+    const std::size_t from = count();
+    stop_it();
+    ASSERT_TRUE(wait_for([&](const robot_state_t& s) { return (s.fault_flags & flag) && s.mode == mode; }, 5s, from))
+        << latest()->fault_text << "\n"
+        << outputs();
+    // The commands keep coming; the arm must come to rest and stay there.
+    ASSERT_TRUE(wait_for(
+        [&](const robot_state_t& s) {
+          return Eigen::Map<const Eigen::VectorXd>(s.joint_velocity.data(), s.num_joints).norm() < 1e-6 &&
+                 Eigen::Map<const Eigen::VectorXd>(s.joint_velocity_cmd.data(), s.num_joints).norm() == 0.0;
+        },
+        5s, from))
+        << outputs();
+    const robot_state_t a = *latest();
+    std::this_thread::sleep_for(300ms);
+    const robot_state_t b = *latest();
+    EXPECT_GT(b.header.seq, a.header.seq) << "still publishing";
+    EXPECT_EQ(b.mode, mode) << b.fault_text;
+    EXPECT_TRUE(b.fault_flags & flag) << b.fault_text;
+    EXPECT_LT((tool_position(b) - tool_position(a)).norm(), 1e-6);
+    for (int j = 0; j < b.num_joints; ++j) {
+      EXPECT_EQ(b.joint_velocity_cmd[j], 0.0);
+      EXPECT_LT(std::abs(b.joint_velocity[j]), 1e-6);
+    }
+  }
+
+  ht::TempDir tmp_;
+  std::string url_, bus_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::thread listener_, commander_;
+  std::atomic<bool> stop_{false}, commanding_{false};
+  std::mutex mutex_, send_mutex_;
+  std::vector<robot_state_t> states_;
+  std::optional<ht::ChildProcess> drives_, link_;
+};
+
+TEST_F(ArmProcesses, TwistMovesTheToolAtTheCommandedVelocityAndTheWatchdogStopsIt) {
+  const Eigen::Vector3d v(0.04, 0.03, -0.05);
+  start_twist(v.x(), v.y(), v.z());
+  ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_MOVING; }, 5s)) << outputs();
+  std::this_thread::sleep_for(300ms);
+  const robot_state_t a = *latest();
+  std::this_thread::sleep_for(1000ms);
+  const robot_state_t b = *latest();
+  ASSERT_EQ(b.mode, +robot_state_t::MODE_MOVING) << b.fault_text;
+  const Eigen::Vector3d measured =
+      (tool_position(b) - tool_position(a)) / (static_cast<double>(b.header.utime - a.header.utime) * 1e-6);
+  EXPECT_LT((measured - v).norm(), 0.05 * v.norm()) << "measured " << measured.transpose();
+  EXPECT_EQ(b.fault_flags, 0) << b.fault_text;
+
+  // The controller goes quiet: a controlled stop after the 100 ms validity.
+  const std::size_t from = count();
+  stop_commands();
+  ASSERT_TRUE(
+      wait_for([](const robot_state_t& s) { return s.command_stale && (s.fault_flags & kFlagCommandStale); }, 3s, from))
+      << outputs();
+  ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_IDLE; }, 3s, from))
+      << outputs();
+  const robot_state_t c = *latest();
+  std::this_thread::sleep_for(300ms);
+  const robot_state_t d = *latest();
+  EXPECT_LT((tool_position(d) - tool_position(c)).norm(), 1e-6);
+  EXPECT_EQ(d.mode, +robot_state_t::MODE_IDLE) << "a stale command is no fault: " << d.fault_text;
+  EXPECT_EQ(d.fault_flags & (kFlagDriveFault | kFlagHeartbeatLost | kFlagEstop), 0);
+}
+
+TEST_F(ArmProcesses, DriveFaultStopsTheArmUntilReset) {
+  expect_stop([this] { inject(harvest::sim_drive_fault_t::KIND_FAULT, 3, 0x2310); }, kFlagDriveFault | kFlagEmcy,
+              +robot_state_t::MODE_FAULT);
+  EXPECT_NE(latest()->fault_text.find("joint 3"), std::string::npos) << latest()->fault_text;
+  // An explicit reset brings it back.
+  harvest::operator_command_t reset{};
+  reset.command = harvest::operator_command_t::RESET_FAULT;
+  reset.source = "test";
+  const std::size_t from = count();
+  send(ch::kOperatorCommand, reset);
+  EXPECT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_MOVING; }, 5s, from))
+      << latest()->fault_text;
+}
+
+TEST_F(ArmProcesses, HeartbeatLossStopsTheArm) {
+  expect_stop([this] { inject(harvest::sim_drive_fault_t::KIND_HEARTBEAT_OFF, 5); }, kFlagHeartbeatLost,
+              +robot_state_t::MODE_FAULT);
+  EXPECT_NE(latest()->fault_text.find("joint 5 (node 5): heartbeat lost"), std::string::npos) << latest()->fault_text;
+}
+
+TEST_F(ArmProcesses, EmergencyStopStopsTheArm) {
+  harvest::emergency_stop_t e{};
+  e.engaged = true;
+  e.source = "test";
+  e.reason = "red button";
+  expect_stop([&] { send(ch::kEmergencyStop, e); }, kFlagEstop, +robot_state_t::MODE_ESTOP);
+  EXPECT_NE(latest()->fault_text.find("red button"), std::string::npos) << latest()->fault_text;
+}
+
+}  // namespace
