@@ -14,7 +14,8 @@ namespace {
 Eigen::Isometry3d read_transform(const config::Node& n, const std::string& rotation_key,
                                  const std::string& translation_key, const Eigen::Isometry3d& fallback,
                                  bool allow_reflection) {
-  const Eigen::Matrix3d r0 = fallback.linear();
+  // The default is written back row-major too (Eigen's own storage is column-major).
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r0 = fallback.linear();
   const Eigen::Vector3d t0 = fallback.translation() * 1000.0;
   const std::vector<double> r = n.numbers(rotation_key, std::vector<double>(r0.data(), r0.data() + 9), 9);
   const std::vector<double> t = n.numbers(translation_key, {t0.x(), t0.y(), t0.z()}, 3);

@@ -265,5 +265,17 @@ TEST(ReconstructorConfig, LoadsShippedFileAndRejectsBadRotation) {
   }
 }
 
+// With no configuration the defaults apply unchanged: the default rotation is
+// written back to the configuration row-major and read back the same (it was
+// once emitted in Eigen's column-major order and came back transposed).
+TEST(ReconstructorConfig, DefaultsRoundTripWithoutTransposing) {
+  auto doc = config::Document::load_string("{}\n");
+  const ReconstructorConfig c = ReconstructorConfig::from_yaml(doc.root());
+  EXPECT_TRUE(c.fixed_extrinsic.matrix().isApprox(thesis_fixed_camera_extrinsic().matrix(), 1e-12));
+  auto again = config::Document::load_string(doc.emit());
+  const ReconstructorConfig c2 = ReconstructorConfig::from_yaml(again.root());
+  EXPECT_TRUE(c2.fixed_extrinsic.matrix().isApprox(thesis_fixed_camera_extrinsic().matrix(), 1e-12));
+}
+
 }  // namespace
 }  // namespace harvest::vision
