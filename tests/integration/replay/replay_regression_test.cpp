@@ -24,7 +24,7 @@ const std::vector<std::string> kVisionNodes = {"--node", "fruit-detector:config/
                                                "--node", "fruit-detector:config/vision/detector-hand.yaml",
                                                "--node", "reconstructor:config/vision/reconstructor.yaml"};
 const std::vector<std::string> kHarvestNodes = {"--node", "reconstructor:config/vision/reconstructor.yaml", "--node",
-                                                "servo-controller"};
+                                                "servo-controller:config/servo/controller.yaml"};
 
 struct Run {
   int code = -1;
@@ -85,7 +85,7 @@ TEST(ReplayRegression, HarvestReferenceLogReplaysAsRecordedWithTheServoControlle
 TEST(ReplayRegression, AChangedDetectorThresholdIsADiff) {
   ht::TempDir dir;
   auto r = replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "out.lcmlog",
-                  {"--compare", "--set", "fruit-detector/detector-fixed:detector.min_area_px=400"});
+                  {"--compare", "--set", "fruit-detector/detector-fixed:detector.fruit_diameter_m=0.09"});
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_GT(paired(r.output, "DIFF", "FRUIT_FIXED"), 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_HAND"), 0) << r.output;  // the other detector is unchanged
