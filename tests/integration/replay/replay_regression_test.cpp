@@ -70,7 +70,8 @@ TEST(ReplayRegression, VisionReferenceLogReplaysAsRecorded) {
   ht::TempDir dir;
   auto r = replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "out.lcmlog", {"--compare"});
   ASSERT_EQ(r.code, 0) << r.output;
-  for (const char* ch : {"FRUIT_FIXED", "FRUIT_HAND", "TARGETS"}) EXPECT_GT(paired(r.output, "SAME", ch), 0) << ch << "\n" << r.output;
+  for (const char* ch : {"FRUIT_FIXED", "FRUIT_HAND", "TARGETS"})
+    EXPECT_GT(paired(r.output, "SAME", ch), 0) << ch << "\n" << r.output;
   EXPECT_NE(r.output.find("replay matches the recording"), std::string::npos);
 }
 
@@ -100,8 +101,9 @@ TEST(ReplayRegression, AChangedReconstructorParameterIsADiffNamingTheField) {
   EXPECT_GT(paired(r.output, "DIFF", "TARGETS"), 0) << r.output;
   EXPECT_NE(r.output.find("TARGETS.targets[0].depth_m: recorded "), std::string::npos) << r.output;
   // A tolerance wide enough for the change makes the depth fields pass.
-  auto wide = replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "out2.lcmlog",
-                     {"--compare", "--set", "reconstructor:fruit.diameter_mean_m=0.08", "--tolerance", "TARGETS.targets[]=10"});
+  auto wide =
+      replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "out2.lcmlog",
+             {"--compare", "--set", "reconstructor:fruit.diameter_mean_m=0.08", "--tolerance", "TARGETS.targets[]=10"});
   EXPECT_EQ(wide.code, 0) << wide.output;
 }
 
@@ -168,7 +170,8 @@ TEST(LogTools, InfoAndExportOnAReferenceLog) {
   for (std::string line; std::getline(in, line);) ++rows;
   const auto log = rt::read_log(ht::source_path("logs/exp1-vision.lcmlog"));
   EXPECT_EQ(rows, std::count_if(log.begin(), log.end(), [](const auto& r) { return r.channel == "FRUIT_FIXED"; }));
-  auto missing = run({ht::bin("harvest-log"), "export", ht::source_path("logs/exp1-vision.lcmlog"), "NOPE"}, dir / "m.txt");
+  auto missing =
+      run({ht::bin("harvest-log"), "export", ht::source_path("logs/exp1-vision.lcmlog"), "NOPE"}, dir / "m.txt");
   EXPECT_EQ(missing.code, 1);
   EXPECT_NE(missing.output.find("'NOPE' is not in the log"), std::string::npos);
 }

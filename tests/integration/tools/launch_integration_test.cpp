@@ -2,14 +2,13 @@
 // clean stop with nothing left behind, invalid sets, lost heartbeats,
 // --exit-with and recording.
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 #include <signal.h>
-
-#include <harvest/config_snapshot_t.hpp>
-#include <harvest/process_status_t.hpp>
 
 #include <atomic>
 #include <fstream>
+#include <harvest/config_snapshot_t.hpp>
+#include <harvest/process_status_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 #include <mutex>
 #include <regex>
 #include <sstream>
@@ -59,26 +58,31 @@ struct Launch {
   std::unique_ptr<ChildProcess> start(const std::filesystem::path& set, std::vector<std::string> extra = {}) {
     std::vector<std::string> argv{testing::bin("harvest-launch"), set.string(), "--lcm-url", url};
     argv.insert(argv.end(), extra.begin(), extra.end());
-    return std::make_unique<ChildProcess>(argv, dir / "launch.out",
-                                          std::vector<std::string>{"PID_DIR=" + dir.path().string(),
-                                                                   "COUNT_FILE=" + (dir / "count").string()});
+    return std::make_unique<ChildProcess>(
+        argv, dir / "launch.out",
+        std::vector<std::string>{"PID_DIR=" + dir.path().string(), "COUNT_FILE=" + (dir / "count").string()});
   }
 };
 
 TEST(Launch, RestartsACrashingProcessPerPolicyThenStopsTheSetWhenCritical) {
   Launch l;
-  const auto set = l.write_set("processes:\n"
-                               "  - name: crash\n    command: " + kFixtures + "/crash.sh\n"
-                               "    harvest_options: false\n    critical: true\n"
-                               "    restart: {policy: on-failure, max_restarts: 2, backoff_s: 0.05}\n"
-                               "  - name: other\n    command: " + kFixtures + "/sleeper.sh\n    args: [other]\n"
-                               "    harvest_options: false\n");
+  const auto set = l.write_set(
+      "processes:\n"
+      "  - name: crash\n    command: " +
+      kFixtures +
+      "/crash.sh\n"
+      "    harvest_options: false\n    critical: true\n"
+      "    restart: {policy: on-failure, max_restarts: 2, backoff_s: 0.05}\n"
+      "  - name: other\n    command: " +
+      kFixtures +
+      "/sleeper.sh\n    args: [other]\n"
+      "    harvest_options: false\n");
   auto launch = l.start(set);
   const int rc = launch->wait(20s);
   const std::string out = launch->output();
   EXPECT_EQ(rc, 1) << out;  // a critical process that gave up fails the set
   EXPECT_EQ(count_lines(read_file(l.dir / "count"), "start"), 3) << out;  // first run + 2 restarts
-  EXPECT_EQ(count_lines(out, "[crash] crashing"), 3) << out;               // output is prefixed and collected
+  EXPECT_EQ(count_lines(out, "[crash] crashing"), 3) << out;              // output is prefixed and collected
   EXPECT_NE(out.find("restarting crash in 0.1 s (restart 2 of 2)"), std::string::npos) << out;  // back-off doubled
   EXPECT_NE(out.find("critical process crash failed"), std::string::npos) << out;
   EXPECT_NE(out.find("other stopped"), std::string::npos) << out;
@@ -87,19 +91,29 @@ TEST(Launch, RestartsACrashingProcessPerPolicyThenStopsTheSetWhenCritical) {
 TEST(Launch, StopsEverythingOnSigtermArmFirstWithNothingLeftBehind) {
   Launch l;
   const std::string sleeper = kFixtures + "/sleeper.sh";
-  const auto set = l.write_set("processes:\n"
-                               "  - {name: first, command: " + sleeper + ", args: [first], harvest_options: false}\n"
-                               "  - {name: stubborn, command: " + sleeper + ", args: [stubborn, stubborn],"
-                               " harvest_options: false, stop_timeout_s: 0.5}\n"
-                               "  - {name: arm, command: " + sleeper + ", args: [arm], harvest_options: false,"
-                               " stop_first: true}\n"
-                               "  - {name: last, command: " + sleeper + ", args: [last], harvest_options: false,"
-                               " after: [first]}\n");
+  const auto set = l.write_set(
+      "processes:\n"
+      "  - {name: first, command: " +
+      sleeper +
+      ", args: [first], harvest_options: false}\n"
+      "  - {name: stubborn, command: " +
+      sleeper +
+      ", args: [stubborn, stubborn],"
+      " harvest_options: false, stop_timeout_s: 0.5}\n"
+      "  - {name: arm, command: " +
+      sleeper +
+      ", args: [arm], harvest_options: false,"
+      " stop_first: true}\n"
+      "  - {name: last, command: " +
+      sleeper +
+      ", args: [last], harvest_options: false,"
+      " after: [first]}\n");
   auto launch = l.start(set);
   const std::vector<std::string> names{"first", "stubborn", "arm", "last"};
-  ASSERT_TRUE(eventually([&] {
-    return std::all_of(names.begin(), names.end(), [&](const std::string& n) { return exists(l.dir / n); });
-  }, 10s)) << launch->output();
+  ASSERT_TRUE(eventually(
+      [&] { return std::all_of(names.begin(), names.end(), [&](const std::string& n) { return exists(l.dir / n); }); },
+      10s))
+      << launch->output();
   std::vector<pid_t> pids;
   for (const auto& n : names) {
     std::istringstream in(read_file(l.dir / n));
@@ -169,24 +183,32 @@ TEST(Launch, ReportsAProcessWhoseHeartbeatStops) {
   auto launch = l.start(set);
   std::smatch m;
   std::string out;
-  ASSERT_TRUE(eventually([&] {
-    out = launch->output();
-    return std::regex_search(out, m, std::regex("started beater \\(pid (\\d+)\\)"));
-  }, 10s)) << out;
+  ASSERT_TRUE(eventually(
+      [&] {
+        out = launch->output();
+        return std::regex_search(out, m, std::regex("started beater \\(pid (\\d+)\\)"));
+      },
+      10s))
+      << out;
   const pid_t beater = std::stoi(m[1]);
-  ASSERT_TRUE(eventually([&] {
-    std::lock_guard<std::mutex> g(mu);
-    return launcher_state == harvest::process_status_t::STATE_OK;
-  }, 10s)) << launch->output();
+  ASSERT_TRUE(eventually(
+      [&] {
+        std::lock_guard<std::mutex> g(mu);
+        return launcher_state == harvest::process_status_t::STATE_OK;
+      },
+      10s))
+      << launch->output();
 
   kill(beater, SIGSTOP);  // alive but silent: a hung process
   EXPECT_TRUE(eventually([&] { return launch->output().find("beater: heartbeat lost") != std::string::npos; }, 10s))
       << launch->output();
-  EXPECT_TRUE(eventually([&] {
-    std::lock_guard<std::mutex> g(mu);
-    return launcher_state == harvest::process_status_t::STATE_DEGRADED &&
-           launcher_message.find("beater heartbeat lost") != std::string::npos;
-  }, 10s));
+  EXPECT_TRUE(eventually(
+      [&] {
+        std::lock_guard<std::mutex> g(mu);
+        return launcher_state == harvest::process_status_t::STATE_DEGRADED &&
+               launcher_message.find("beater heartbeat lost") != std::string::npos;
+      },
+      10s));
   kill(beater, SIGCONT);
   EXPECT_TRUE(eventually([&] { return launch->output().find("beater: heartbeat back") != std::string::npos; }, 10s))
       << launch->output();
@@ -216,6 +238,37 @@ TEST(Launch, ExitsWithANamedProcessAndRecordsTheRun) {
   }
   EXPECT_TRUE(config_seen);  // the recorder was up before the process started
   EXPECT_TRUE(status_seen);
+}
+
+TEST(Launch, GroupStartsOnlyItsProcessesAndCheckStartsNothing) {
+  Launch l;
+  const std::string sleeper = kFixtures + "/sleeper.sh";
+  const auto set = l.write_set(
+      "processes:\n"
+      "  - {name: cam, command: " +
+      sleeper +
+      ", args: [cam], harvest_options: false,"
+      " group: vision}\n"
+      "  - {name: link, command: " +
+      sleeper +
+      ", args: [link], harvest_options: false,"
+      " group: robot}\n");
+  ChildProcess check({testing::bin("harvest-launch"), set.string(), "--check", "--group", "robot"},
+                     l.dir / "check.out");
+  EXPECT_EQ(check.wait(10s), 0) << check.output();
+  EXPECT_NE(check.output().find("is valid"), std::string::npos) << check.output();
+  EXPECT_NE(check.output().find("link"), std::string::npos) << check.output();
+  EXPECT_FALSE(exists(l.dir / "link"));  // --check started nothing
+
+  auto launch = l.start(set, {"--group", "robot"});
+  ASSERT_TRUE(eventually([&] { return exists(l.dir / "link"); }, 10s)) << launch->output();
+  EXPECT_EQ(launch->stop(10s), 0) << launch->output();
+  EXPECT_FALSE(exists(l.dir / "cam")) << launch->output();
+  EXPECT_EQ(launch->output().find("started cam"), std::string::npos) << launch->output();
+
+  ChildProcess none({testing::bin("harvest-launch"), set.string(), "--group", "nope"}, l.dir / "none.out");
+  EXPECT_EQ(none.wait(10s), 2);
+  EXPECT_NE(none.output().find("no process in group 'nope'"), std::string::npos) << none.output();
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
+#include "logtools/compare.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/targets_t.hpp"
-#include "logtools/compare.hpp"
 #include "runtime/log_io.hpp"
 
 namespace lt = harvest::logtools;

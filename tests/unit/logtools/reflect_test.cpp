@@ -1,9 +1,10 @@
+#include "logtools/reflect.hpp"
+
 #include <gtest/gtest.h>
 
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/image_t.hpp"
 #include "harvest/targets_t.hpp"
-#include "logtools/reflect.hpp"
 #include "runtime/log_io.hpp"
 
 namespace lt = harvest::logtools;
