@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <set>
@@ -69,6 +70,7 @@ std::vector<std::string> sorted_channels(const std::set<std::string>& s) { retur
 int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream& err) {
   // ---- configuration: everything is checked before the log is touched ----
   std::vector<std::unique_ptr<BuiltNode>> built;
+  std::function<std::vector<std::unique_ptr<BuiltNode>>()> build;
   try {
     if (o.nodes.empty()) throw std::invalid_argument("no --node given (see --list-nodes)");
     std::vector<NodeSpec> specs;
@@ -106,38 +108,62 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
         throw std::invalid_argument("--set '" + ov + "': several nodes, write --set LABEL:key=value");
       }
     }
-    for (const auto& s : specs) {
-      auto b = std::make_unique<BuiltNode>(BuiltNode{s, rt::load_config(s.config, overrides[s.label]), {}});
-      rt::ProcessEnv env{s.process, s.label, "", o.prefix};
-      const auto& reg = node_registry();
-      auto it = std::find_if(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == s.process; });
-      b->nodes = it->factory(b->doc.root(), env);
-      b->doc.check_unused();
-      built.push_back(std::move(b));
-    }
+    build = [specs, overrides, prefix = o.prefix]() {
+      std::vector<std::unique_ptr<BuiltNode>> nodes;
+      for (const auto& s : specs) {
+        const auto ov = overrides.count(s.label) ? overrides.at(s.label) : std::vector<std::string>{};
+        auto b = std::make_unique<BuiltNode>(BuiltNode{s, rt::load_config(s.config, ov), {}});
+        rt::ProcessEnv env{s.process, s.label, "", prefix};
+        const auto& reg = node_registry();
+        auto it = std::find_if(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == s.process; });
+        b->nodes = it->factory(b->doc.root(), env);
+        b->doc.check_unused();
+        nodes.push_back(std::move(b));
+      }
+      return nodes;
+    };
+    built = build();
   } catch (const std::exception& e) {
     err << "harvest-replay: " << e.what() << "\n";
     return 2;
   }
 
   // ---- replay ----
-  rt::ReplayOptions ro;
-  ro.input_log = o.input_log;
-  ro.output_log = o.output_log;
-  ro.prefix = o.prefix;
-  ro.tail = static_cast<rt::Micros>(o.tail_s * 1e6);
-  rt::ReplayRunner runner(ro);
-  for (auto& b : built)
-    for (auto& n : b->nodes) runner.add(*n);
+  auto replay_once = [&](const std::string& input, std::set<std::string>& regenerated) {
+    rt::ReplayOptions ro;
+    ro.input_log = input;
+    ro.output_log = o.output_log;
+    ro.prefix = o.prefix;
+    ro.tail = static_cast<rt::Micros>(o.tail_s * 1e6);
+    rt::ReplayRunner runner(ro);
+    for (auto& b : built)
+      for (auto& n : b->nodes) runner.add(*n);
+    const auto result = runner.run();
+    regenerated.clear();
+    for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
+    return result;
+  };
   rt::ReplayResult result;
+  std::set<std::string> regenerated;
+  std::string inputs_only;  // --rebase: the input without the regenerated channels
   try {
-    result = runner.run();
+    result = replay_once(o.input_log, regenerated);
+    if (o.rebase) {
+      // Replay again over the input without the regenerated channels, so a
+      // replay of the rebased log starts at the same first event (timer
+      // phases) and sees exactly the same inputs.
+      std::vector<rt::LogRecord> filtered;
+      for (auto& r : rt::read_log(o.input_log))
+        if (!regenerated.count(r.channel)) filtered.push_back(std::move(r));
+      inputs_only = o.output_log + ".inputs";
+      rt::write_log(inputs_only, filtered);
+      built = build();
+      result = replay_once(inputs_only, regenerated);
+    }
   } catch (const std::exception& e) {
     err << "harvest-replay: " << e.what() << "\n";
     return 3;
   }
-  std::set<std::string> regenerated;
-  for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
 
   out << "replayed " << o.input_log << " -> " << o.output_log << "\n";
   out << "  events read " << result.events_read << ", delivered " << result.events_delivered
@@ -164,16 +190,15 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       if (!report.ok) rc = 1;
     }
     if (o.rebase) {
-      // Input without the regenerated channels, merged in time order with
-      // the replay output (an input first at equal times: outputs follow the
-      // event that caused them).
-      const auto input = rt::read_log(o.input_log);
+      // The inputs merged in time order with the replay output (an input
+      // first at equal times: outputs follow the event that caused them).
+      const auto input = rt::read_log(inputs_only);
       const auto replayed = rt::read_log(o.output_log);
+      std::filesystem::remove(inputs_only);
       std::vector<rt::LogRecord> merged;
       merged.reserve(input.size() + replayed.size());
       std::size_t j = 0;
       for (const auto& r : input) {
-        if (regenerated.count(r.channel)) continue;
         while (j < replayed.size() && replayed[j].timestamp < r.timestamp) merged.push_back(replayed[j++]);
         merged.push_back(r);
       }
