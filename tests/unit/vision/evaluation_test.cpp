@@ -90,6 +90,11 @@ TEST(ShippedConfig, CameraAndDetectorFilesLoadWithoutUnknownKeys) {
     EXPECT_TRUE(d.detector.circle_fit);  // canopy mode
     EXPECT_EQ(d.detector.thresholds.cb_min, -220);
   }
+  auto photos = config::Document::load_file("config/vision/detector-photos.yaml");
+  const DetectorNodeConfig p = DetectorNodeConfig::from_yaml(photos.root());
+  EXPECT_NO_THROW(photos.check_unused());
+  EXPECT_EQ(p.detector.thresholds.cr_max, 150);
+  EXPECT_EQ(p.detector.min_area_px, 400);
 }
 
 }  // namespace
