@@ -619,7 +619,8 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
                out);
       current_.reset();
       paused_ = false;
-      if (!estop_) {
+      // Never a way out of a latched e-stop or fault: those stay until cleared.
+      if (!estop_ && state_ != State::kFault) {
         enter(State::kIdle, now, out);
         stop_pending_ = false;
       }
