@@ -16,6 +16,7 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   c.heartbeat_timeout = node.get<int>("heartbeat_timeout_ms", 200, {20, 5000}) * 1000;
   c.pdo_timeout = node.get<int>("pdo_timeout_ms", 100, {10, 5000}) * 1000;
   c.sdo_timeout = node.get<int>("sdo_timeout_ms", 200, {10, 5000}) * 1000;
+  c.boot_timeout = node.get<int>("boot_timeout_ms", 2000, {0, 60000}) * 1000;
   if (c.heartbeat_timeout <= Micros{c.heartbeat_ms} * 1000)
     node.fail("heartbeat_timeout_ms", "a value greater than heartbeat_ms");
   // The drive list usually lives in its own file, shared with the simulated drives.
@@ -60,33 +61,44 @@ void Master::start(Micros now) {
   now_ = now;
   phase_ = MasterPhase::kConfiguring;
   started_ = now;
+  configure_started_ = now;
   configured_ = 0;
   heartbeat_armed_.assign(drives_.size(), false);
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     send(nmt_frame(NmtCommand::kEnterPreOperational, config_.drives[i].node_id));
     drives_[i].last_heartbeat = now;
-    // Check it is a CiA 402 device before writing anything to it.
-    const uint8_t node = config_.drives[i].node_id;
-    sdo_.read(
-        node, od::kDeviceType, 0,
-        [this, i, node](const SdoResult& r) {
-          if (phase_ != MasterPhase::kConfiguring) return;
-          if (!r.ok) {
-            phase_ = MasterPhase::kFailed;
-            error_ = "joint " + std::to_string(i + 1) + ": reading the device type failed: " + r.error;
-            return;
-          }
-          const uint32_t type = r.data.size() >= 4 ? get_u32(r.data.data()) : 0;
-          if ((type & 0xFFFF) != 402) {
-            phase_ = MasterPhase::kFailed;
-            error_ = "joint " + std::to_string(i + 1) + " (node " + std::to_string(node) +
-                     ") is not a CiA 402 drive (device type " + std::to_string(type) + ")";
-            return;
-          }
-          configure_next(i, 0, now_);
-        },
-        now);
+    probe(i, now);
   }
+}
+
+void Master::probe(std::size_t i, Micros now) {
+  // Check it is a CiA 402 device before writing anything to it. A drive that
+  // does not answer yet (still booting, powered after us) is asked again
+  // until boot_timeout has passed since start().
+  const uint8_t node = config_.drives[i].node_id;
+  sdo_.read(
+      node, od::kDeviceType, 0,
+      [this, i, node](const SdoResult& r) {
+        if (phase_ != MasterPhase::kConfiguring) return;
+        if (!r.ok && r.abort_code == sdo::kAbortTimeout && now_ - configure_started_ < config_.boot_timeout) {
+          probe(i, now_);
+          return;
+        }
+        if (!r.ok) {
+          phase_ = MasterPhase::kFailed;
+          error_ = "joint " + std::to_string(i + 1) + ": reading the device type failed: " + r.error;
+          return;
+        }
+        const uint32_t type = r.data.size() >= 4 ? get_u32(r.data.data()) : 0;
+        if ((type & 0xFFFF) != 402) {
+          phase_ = MasterPhase::kFailed;
+          error_ = "joint " + std::to_string(i + 1) + " (node " + std::to_string(node) +
+                   ") is not a CiA 402 drive (device type " + std::to_string(type) + ")";
+          return;
+        }
+        configure_next(i, 0, now_);
+      },
+      now);
 }
 
 void Master::configure_next(std::size_t i, std::size_t step, Micros now) {

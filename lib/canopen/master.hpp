@@ -33,6 +33,7 @@ struct MasterConfig {
   Micros heartbeat_timeout = 200'000;  // consumer: lost if silent this long
   Micros pdo_timeout = 100'000;        // running drive sent no TPDO this long
   Micros sdo_timeout = 200'000;
+  Micros boot_timeout = 2'000'000;  // a drive not answering at start is asked again for this long
 
   // Reads the `can` mapping of a robot-link configuration; the drive list is
   // `drives` there or in the file `drives_file`. Throws config::Error.
@@ -100,6 +101,7 @@ class Master {
   std::vector<std::string> take_events();
 
  private:
+  void probe(std::size_t drive, Micros now);
   void configure_next(std::size_t drive, std::size_t step, Micros now);
   void latch(std::size_t i, bool DriveStatus::*flag, const std::string& text);
   int index_of_node(uint8_t node) const;
@@ -115,6 +117,7 @@ class Master {
   DriveGoal goal_ = DriveGoal::kDisabled;
   std::size_t configured_ = 0;
   Micros started_ = 0;
+  Micros configure_started_ = 0;
   Micros now_ = 0;  // time of the call being handled (SDO callbacks carry none)
   Micros last_sync_ = 0;
   int64_t sync_count_ = 0;

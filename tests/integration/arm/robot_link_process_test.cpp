@@ -34,8 +34,11 @@ constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLo
 // A virtual CAN bus of its own for every test (ctest runs tests in parallel):
 // group and port from the pid, ports above the ephemeral range.
 std::string unique_can_bus() {
+  static int counter = 0;
   const int pid = static_cast<int>(::getpid());
-  return "udp_multicast:239.74.163." + std::to_string(10 + pid % 200) + ":" + std::to_string(61000 + (pid * 7) % 4000);
+  const int n = counter++;
+  return "udp_multicast:239.74.163." + std::to_string(10 + (pid + n) % 200) + ":" +
+         std::to_string(61000 + (pid * 7 + n * 13) % 4000);
 }
 
 Eigen::Vector3d tool_position(const robot_state_t& s) {
@@ -80,7 +83,9 @@ class ArmProcesses : public ::testing::Test {
     if (drives_) {
       const bool was_running = drives_->running();
       const int rc = drives_->stop(10s);
-      if (was_running) EXPECT_EQ(rc, 0) << outputs();
+      if (was_running) {
+        EXPECT_EQ(rc, 0) << outputs();
+      }
     }
     stop_ = true;
     if (listener_.joinable()) listener_.join();

@@ -154,6 +154,20 @@ TEST_F(MasterWithDrives, QuickStopRampsDown) {
   EXPECT_DOUBLE_EQ(drives_->drive(0).velocity(), 0.0);
 }
 
+TEST_F(MasterWithDrives, WaitsForADriveThatComesUpLate) {
+  drives_->drive(1).set_silent(true);  // powered up after the master
+  master_->start(now_);
+  run(1.0);
+  EXPECT_EQ(master_->phase(), MasterPhase::kConfiguring);
+  drives_->drive(1).set_silent(false);
+  run(0.5);
+  ASSERT_EQ(master_->phase(), MasterPhase::kRunning) << master_->error();
+  master_->set_goal(DriveGoal::kEnabled);
+  run(0.1);
+  EXPECT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled));
+  EXPECT_FALSE(master_->any_fault());
+}
+
 class MissingDrive : public MasterWithDrives {
  protected:
   MissingDrive() : MasterWithDrives({1, 9}) {}
@@ -161,7 +175,9 @@ class MissingDrive : public MasterWithDrives {
 
 TEST_F(MissingDrive, ConfigurationFailsWithAClearError) {
   master_->start(now_);
-  run(0.5);
+  run(1.9);
+  EXPECT_EQ(master_->phase(), MasterPhase::kConfiguring) << "still asking within boot_timeout (2 s)";
+  run(0.6);
   EXPECT_EQ(master_->phase(), MasterPhase::kFailed);
   EXPECT_NE(master_->error().find("joint 2"), std::string::npos) << master_->error();
   EXPECT_NE(master_->error().find("SDO protocol timed out"), std::string::npos) << master_->error();
