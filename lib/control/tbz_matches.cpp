@@ -1,5 +1,6 @@
 #include "control/tbz_matches.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace harvest::control {

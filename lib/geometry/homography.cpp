@@ -17,13 +17,20 @@ using Eigen::Vector3d;
 
 const char* to_string(Status s) {
   switch (s) {
-    case Status::kOk: return "ok";
-    case Status::kTooFewPoints: return "fewer than four point pairs";
-    case Status::kNonFinite: return "non-finite input";
-    case Status::kDegenerate: return "degenerate configuration (collinear or coincident points)";
-    case Status::kNoConsensus: return "fewer than four consistent pairs";
-    case Status::kNoValidSolution: return "no decomposition satisfies the visibility constraints";
-    case Status::kAmbiguous: return "two valid decompositions and no reference normal";
+    case Status::kOk:
+      return "ok";
+    case Status::kTooFewPoints:
+      return "fewer than four point pairs";
+    case Status::kNonFinite:
+      return "non-finite input";
+    case Status::kDegenerate:
+      return "degenerate configuration (collinear or coincident points)";
+    case Status::kNoConsensus:
+      return "fewer than four consistent pairs";
+    case Status::kNoValidSolution:
+      return "no decomposition satisfies the visibility constraints";
+    case Status::kAmbiguous:
+      return "two valid decompositions and no reference normal";
   }
   return "unknown";
 }
@@ -314,7 +321,23 @@ DecompositionResult decompose_homography(const Matrix3d& H, const Points3& m_ref
     if (visible) res.candidates.push_back(d);
   }
   if (res.candidates.empty()) {
-    res.status = Status::kNoValidSolution;
+    // Near the goal the translation drowns in pixel noise: the normal is then
+    // unobservable and the visibility test meaningless, but every solution
+    // has (almost) the same rotation. Treat it as the pure-rotation case.
+    double largest = 0;
+    for (const auto& d : all) largest = std::max(largest, d.x_h.norm());
+    if (largest > kNegligibleTranslation) {
+      res.status = Status::kNoValidSolution;
+      return res;
+    }
+    res.candidates = all;
+    if (reference_normal) {
+      std::sort(res.candidates.begin(), res.candidates.end(), [&](const Decomposition& a, const Decomposition& b) {
+        return a.n.dot(*reference_normal) > b.n.dot(*reference_normal);
+      });
+    }
+    res.best = res.candidates.front();
+    res.status = Status::kOk;
     return res;
   }
   auto by_normal = [&](const Decomposition& a, const Decomposition& b) {
@@ -340,9 +363,7 @@ Matrix3d skew(const Vector3d& v) {
   return S;
 }
 
-Vector3d unskew(const Matrix3d& S) {
-  return 0.5 * Vector3d(S(2, 1) - S(1, 2), S(0, 2) - S(2, 0), S(1, 0) - S(0, 1));
-}
+Vector3d unskew(const Matrix3d& S) { return 0.5 * Vector3d(S(2, 1) - S(1, 2), S(0, 2) - S(2, 0), S(1, 0) - S(0, 1)); }
 
 AngleAxis angle_axis(const Matrix3d& R) {
   AngleAxis aa;

@@ -24,12 +24,12 @@ namespace harvest::geometry {
 
 enum class Status {
   kOk = 0,
-  kTooFewPoints,  // fewer than four correspondences
-  kNonFinite,     // NaN or infinity in the input
-  kDegenerate,    // collinear points, rank-deficient system, singular matrix
-  kNoConsensus,   // robust fit found fewer than four consistent pairs
+  kTooFewPoints,     // fewer than four correspondences
+  kNonFinite,        // NaN or infinity in the input
+  kDegenerate,       // collinear points, rank-deficient system, singular matrix
+  kNoConsensus,      // robust fit found fewer than four consistent pairs
   kNoValidSolution,  // no decomposition satisfies the visibility constraints
-  kAmbiguous,     // two decompositions remain and no reference normal decides
+  kAmbiguous,        // two decompositions remain and no reference normal decides
 };
 const char* to_string(Status s);
 
@@ -39,7 +39,7 @@ using Points3 = std::vector<Eigen::Vector3d>;
 struct HomographyFit {
   Status status = Status::kDegenerate;
   Eigen::Matrix3d G = Eigen::Matrix3d::Identity();  // to ~ G from, normalised so g33 = 1 (eq. 2-18)
-  std::vector<uint8_t> inliers;                      // per pair, 1 = used in the final fit
+  std::vector<uint8_t> inliers;                     // per pair, 1 = used in the final fit
   int num_inliers = 0;
   double rms_error_px = 0.0;  // transfer error over the inliers
   bool ok() const { return status == Status::kOk; }
@@ -89,7 +89,7 @@ std::vector<Decomposition> decompose_homography_all(const Eigen::Matrix3d& H);
 
 struct DecompositionResult {
   Status status = Status::kNoValidSolution;
-  Decomposition best;                    // valid when status is kOk or kAmbiguous
+  Decomposition best;                     // valid when status is kOk or kAmbiguous
   std::vector<Decomposition> candidates;  // solutions passing the visibility test
   bool ok() const { return status == Status::kOk; }
 };
@@ -98,6 +98,10 @@ struct DecompositionResult {
 // point in front of the plane in both frames (n^T m* > 0, (R n)^T m > 0).
 // With a reference normal the candidate closest to it wins; without one, two
 // survivors give kAmbiguous (best = the one with the smaller rotation).
+// When no solution passes the visibility test but every |x_h| is below
+// kNegligibleTranslation (noise at the goal pose: the normal is unobservable
+// there), all solutions are kept and the result is kOk, as for a pure rotation.
+inline constexpr double kNegligibleTranslation = 1e-3;
 DecompositionResult decompose_homography(const Eigen::Matrix3d& H, const Points3& m_ref, const Points3& m_cur,
                                          const std::optional<Eigen::Vector3d>& reference_normal = std::nullopt);
 

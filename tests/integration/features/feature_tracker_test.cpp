@@ -115,9 +115,11 @@ class FeatureTrackerProcess : public ::testing::Test {
       sent = true;
       if (ht::eventually(
               [&] {
-                for (const auto& t : bus.on<feature_tracks_t>("FEATURES_HAND"))
-                  if (t.header.source_seq == seq) return true;
-                return false;
+                bool tracks = false, matches = false;
+                for (const auto& t : bus.on<feature_tracks_t>("FEATURES_HAND")) tracks |= t.header.source_seq == seq;
+                for (const auto& m : bus.on<feature_matches_t>("FEATURE_MATCHES"))
+                  matches |= m.header.source_seq == seq;
+                return tracks && matches;
               },
               300ms))
         return true;
@@ -142,7 +144,7 @@ TEST_F(FeatureTrackerProcess, TracksFeaturesAndMatchesTheZoomedImage) {
   ASSERT_TRUE(send_hand(ft::render_plane(texture, Hc(0), size, 90, 1.0, 0), 0, true)) << proc->output();
   // Before any desired image: an explicit status.
   const auto none = answer<feature_matches_t>("FEATURE_MATCHES", 0);
-  EXPECT_EQ(none.status, feature_matches_t::STATUS_NO_DESIRED);
+  EXPECT_EQ(none.status, +feature_matches_t::STATUS_NO_DESIRED);
   auto desired = make_image(ft::render_plane(texture, Hd, size, 90, 1.0, 100), 0);
   desired.header.frame_id = "camera_fixed";
   bus.publish("CAMERA_FIXED_ZOOM", desired);
@@ -160,7 +162,7 @@ TEST_F(FeatureTrackerProcess, TracksFeaturesAndMatchesTheZoomedImage) {
       for (const auto& f : tracks.features) start_pos[f.id] = cv::Point2f(f.u_px, f.v_px);
     }
     const auto m = answer<feature_matches_t>("FEATURE_MATCHES", k);
-    ASSERT_EQ(m.status, feature_matches_t::STATUS_OK) << m.status_text;
+    ASSERT_EQ(m.status, +feature_matches_t::STATUS_OK) << m.status_text;
     ASSERT_GE(m.num_inliers, 20) << m.status_text;
     const cv::Matx33d truth = Hc(k) * Hd.inv();
     double worst = 0;
@@ -225,7 +227,7 @@ TEST_F(FeatureTrackerProcess, FruitRegionAndUntexturedFruit) {
   std::this_thread::sleep_for(300ms);
   ASSERT_TRUE(send_hand(orange, 2)) << proc->output();
   const auto m = answer<feature_matches_t>("FEATURE_MATCHES", 2);
-  EXPECT_EQ(m.status, feature_matches_t::STATUS_TOO_FEW) << m.status_text;
+  EXPECT_EQ(m.status, +feature_matches_t::STATUS_TOO_FEW) << m.status_text;
   EXPECT_EQ(m.num_inliers, 0);
   std::printf("untextured fruit over LCM: %s\n", m.status_text.c_str());
   EXPECT_EQ(proc->stop(5s), 0) << proc->output();
