@@ -1,0 +1,322 @@
+#include "demo/demo_driver.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <lcm/lcm-cpp.hpp>
+#include <optional>
+
+#include "demo/progress.hpp"
+#include "demo/set_rewrite.hpp"
+#include "harvest/harvest_status_t.hpp"
+#include "harvest/sim_truth_t.hpp"
+#include "launch/child.hpp"
+#include "runtime/channels.hpp"
+#include "runtime/clock.hpp"
+#include "runtime/log_io.hpp"
+#include "servo/operator_command.hpp"
+#include "sim/evaluation.hpp"
+#include "sim/scenario.hpp"
+#include "sim/sim_node.hpp"
+
+#ifndef HARVEST_SOURCE_DIR
+#define HARVEST_SOURCE_DIR "."
+#endif
+
+namespace harvest::demo {
+
+namespace fs = std::filesystem;
+namespace ch = harvest::channels;
+
+namespace {
+
+std::atomic<int> g_signal{0};
+extern "C" void on_signal(int sig) { g_signal = sig; }
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string utc_stamp() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
+  return buf;
+}
+
+// Receives what the demo watches; one message at a time, on this thread.
+class Monitor {
+ public:
+  explicit Monitor(Progress& p) : progress_(p) {}
+  void status(const lcm::ReceiveBuffer*, const std::string&, const harvest_status_t* m) { pending_ = *m; }
+  void truth(const lcm::ReceiveBuffer*, const std::string&, const sim_truth_t* m) { progress_.on_truth(*m); }
+  std::optional<harvest_status_t> take() {
+    auto s = std::move(pending_);
+    pending_.reset();
+    return s;
+  }
+
+ private:
+  Progress& progress_;
+  std::optional<harvest_status_t> pending_;
+};
+
+struct RunResult {
+  int launcher_exit = -1;
+  bool started = false;
+  std::string problem;  // why the run did not end normally
+  fs::path log;
+};
+
+// The recording the launcher made for this run (file_prefix runK).
+std::optional<fs::path> find_log(const fs::path& dir, const std::string& prefix) {
+  std::optional<fs::path> best;
+  if (!fs::exists(dir)) return best;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) == 0 && e.path().extension() != ".log" && e.path().extension() != ".yaml" &&
+        (!best || fs::file_size(e.path()) > fs::file_size(*best)))
+      best = e.path();
+  }
+  return best;
+}
+
+RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run, lcm::LCM& lcm, std::ostream& out,
+                   std::ostream& err) {
+  RunResult r;
+  const std::string prefix = "run" + std::to_string(run);
+  const fs::path set_copy = o.out_dir / (prefix + "-set.yaml");
+  {
+    SetRewrite rw;
+    rw.set_file = o.set_file;
+    rw.bin_dir = o.bin_dir;
+    rw.sim_extra_args = {"--set", "scenario=" + fs::absolute(o.scenario).string(), "--set",
+                         "run=" + std::to_string(run)};
+    std::ofstream f(set_copy);
+    f << "# Written by harvest-demo from " << o.set_file.string() << " for " << prefix << "\n" << rewrite_set(rw);
+  }
+  const std::vector<std::string> argv = {(o.bin_dir / "harvest-launch").string(),
+                                         set_copy.string(),
+                                         "--exit-with",
+                                         "sim",
+                                         "--no-table",
+                                         "--lcm-url",
+                                         o.lcm_url,
+                                         "--instance",
+                                         "demo-launch",
+                                         "--set",
+                                         "recording.enabled=true",
+                                         "--set",
+                                         "recording.folder=" + o.out_dir.string(),
+                                         "--set",
+                                         "recording.file_prefix=" + prefix};
+  std::ofstream launch_log(o.out_dir / (prefix + "-launch.log"));
+  const launch::Spawned child = launch::spawn(argv, {}, o.root);
+  launch::LineBuffer lines;
+  auto on_line = [&](const std::string& line) {
+    launch_log << line << '\n';
+    // The launcher's own lines (starts, exits, restarts) and every error reach the terminal.
+    if (line.rfind("[launch]", 0) == 0 || line.find(" error ") != std::string::npos ||
+        line.find("critical") != std::string::npos)
+      out << "  " << line << std::endl;
+  };
+
+  Progress progress(run);
+  Monitor monitor(progress);
+  lcm::Subscription* s1 = lcm.subscribe(ch::kHarvestStatus, &Monitor::status, &monitor);
+  lcm::Subscription* s2 = lcm.subscribe(sim::kSimTruthChannel, &Monitor::truth, &monitor);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const double deadline_s = scenario.time_limit_s + o.run_margin_s;
+  double last_start_sent = -10.0, stop_sent_at = -1.0;
+  bool exited = false;
+  int status = 0;
+  while (!exited) {
+    pollfd fds[2] = {{lcm.getFileno(), POLLIN, 0}, {child.output_fd, POLLIN, 0}};
+    ::poll(fds, child.output_fd >= 0 ? 2 : 1, 100);
+    if (fds[0].revents & POLLIN) lcm.handle();
+    if (child.output_fd >= 0 && (fds[1].revents & (POLLIN | POLLHUP))) {
+      char buf[4096];
+      ssize_t n;
+      while ((n = ::read(child.output_fd, buf, sizeof buf)) > 0) lines.feed(buf, static_cast<std::size_t>(n), on_line);
+    }
+    const double t = seconds_since(t0);
+    if (auto st = monitor.take())
+      if (auto line = progress.on_status(*st, t)) out << *line << std::endl;
+
+    // START until the controller obeys (it refuses while it has no robot state yet).
+    if (!progress.started() && progress.controller_seen() && t - last_start_sent >= 1.0 && stop_sent_at < 0) {
+      const auto msg =
+          std::get<operator_command_t>(servo::make_operator_message("start", "harvest-demo", "", rt::wall_time_now()));
+      lcm.publish(ch::kOperatorCommand, &msg);
+      last_start_sent = t;
+    }
+    std::string why;
+    if (g_signal)
+      why = "interrupted";
+    else if (!progress.started() && t > o.start_timeout_s)
+      why = "the controller did not start within " + std::to_string(static_cast<int>(o.start_timeout_s)) + " s";
+    else if (t > deadline_s)
+      why = "the run went past the scenario's time limit";
+    if (!why.empty() && stop_sent_at < 0) {
+      r.problem = why;
+      err << "harvest-demo: run " << run << ": " << why << "; stopping the set\n";
+      launch::signal_group(child.pid, SIGINT);
+      stop_sent_at = t;
+    }
+    if (stop_sent_at >= 0 && t - stop_sent_at > 20.0) launch::signal_group(child.pid, SIGKILL);
+    exited = ::waitpid(child.pid, &status, WNOHANG) == child.pid;
+  }
+  char buf[4096];
+  ssize_t n;
+  while (child.output_fd >= 0 && (n = ::read(child.output_fd, buf, sizeof buf)) > 0)
+    lines.feed(buf, static_cast<std::size_t>(n), on_line);
+  lines.flush(on_line);
+  if (child.output_fd >= 0) ::close(child.output_fd);
+  lcm.unsubscribe(s1);
+  lcm.unsubscribe(s2);
+  r.launcher_exit = launch::exit_code_of(status);
+  r.started = progress.started();
+  if (r.problem.empty() && r.launcher_exit != 0)
+    r.problem =
+        "harvest-launch exited with code " + std::to_string(r.launcher_exit) + " (see " + prefix + "-launch.log)";
+  if (auto log = find_log(o.out_dir, prefix))
+    r.log = *log;
+  else if (r.problem.empty())
+    r.problem = "no recording of the run found in " + o.out_dir.string();
+  return r;
+}
+
+void write_report(const DemoOptions& o, const sim::Evaluation& e, const std::vector<RunResult>& results,
+                  const std::string& table) {
+  std::ofstream md(o.out_dir / "report.md");
+  md << "# Harvest demo: " << e.scenario << "\n\n"
+     << "Scenario file: `" << o.scenario.string() << "`, process set: `" << o.set_file.string() << "`, runs: " << o.runs
+     << ".\n\n## Summary\n\n```\n"
+     << table << "```\n\n## Runs\n\n| run | log | launcher exit | note |\n|---|---|---|---|\n";
+  for (std::size_t i = 0; i < results.size(); ++i)
+    md << "| " << i << " | `" << results[i].log.filename().string() << "` | " << results[i].launcher_exit << " | "
+       << (results[i].problem.empty() ? "ended normally" : results[i].problem) << " |\n";
+  if (fs::exists(o.out_dir / "plots")) {
+    md << "\n## Plots\n\n";
+    for (const auto& p : fs::directory_iterator(o.out_dir / "plots"))
+      if (p.path().extension() == ".png")
+        md << "![" << p.path().stem().string() << "](plots/" << p.path().filename().string() << ")\n";
+  }
+}
+
+}  // namespace
+
+bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
+  CLI::App app{"Run the simulated harvest end to end: simulator + the field process set (docs/demo.md)"};
+  o.root = fs::path(HARVEST_SOURCE_DIR);
+  std::string scenario = "config/scenarios/experiment1.yaml", set = "config/sets/sim.yaml", out, summary, bin;
+  app.add_option("--scenario", scenario, "scenario file (config/scenarios/*.yaml)")->capture_default_str();
+  app.add_option("--runs", o.runs, "repeat the scenario this many times from its start")->check(CLI::Range(1, 1000));
+  app.add_option("--summary", summary, "also write the machine-readable summary (JSON) here");
+  app.add_option("--set", set, "process set to run")->capture_default_str();
+  app.add_option("--out", out, "output folder (default logs/demo/<UTC time>-<scenario>)");
+  app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: a private port on this host, TTL 0)");
+  app.add_option("--bin-dir", bin, "where the harvest-* executables are (default: beside harvest-demo)");
+  app.add_flag("--headless", o.headless, "for CI: plain lines only");
+  bool no_plots = false;
+  app.add_flag("--no-plots", no_plots, "skip the plots");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    exit_code = app.exit(e);
+    return false;
+  }
+  o.plots = !no_plots;
+  // Relative paths: from the current folder if they exist there, else from the repository root.
+  auto from_root = [&](const std::string& p) {
+    if (fs::path(p).is_absolute()) return fs::path(p);
+    return fs::exists(p) ? fs::absolute(p) : o.root / p;
+  };
+  o.scenario = from_root(scenario);
+  o.set_file = from_root(set);
+  if (!out.empty()) o.out_dir = from_root(out);
+  if (!summary.empty()) o.summary_path = from_root(summary);
+  o.bin_dir = bin.empty() ? fs::canonical("/proc/self/exe").parent_path() : from_root(bin);
+  return true;
+}
+
+int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
+  DemoOptions o = opt;
+  sim::Scenario scenario;
+  try {
+    scenario = sim::load_scenario(o.scenario.string());
+  } catch (const std::exception& e) {
+    err << "harvest-demo: " << e.what() << '\n';
+    return 2;
+  }
+  if (!fs::exists(o.set_file)) {
+    err << "harvest-demo: " << o.set_file.string() << ": process set not found\n";
+    return 2;
+  }
+  if (o.out_dir.empty()) o.out_dir = o.root / "logs" / "demo" / (utc_stamp() + "-" + scenario.name);
+  fs::create_directories(o.out_dir);
+  if (o.lcm_url.empty()) o.lcm_url = "udpm://239.255.76.67:" + std::to_string(7700 + ::getpid() % 200) + "?ttl=0";
+  lcm::LCM lcm(o.lcm_url);
+  if (!lcm.good()) {
+    err << "harvest-demo: cannot open LCM at " << o.lcm_url << " (try `tools/harvest netfix`)\n";
+    return 1;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+  out << "harvest-demo: scenario '" << scenario.name << "' (" << o.scenario.string() << "), " << o.runs
+      << " run(s), set " << o.set_file.filename().string() << ", output in " << o.out_dir.string() << std::endl;
+  sim::Evaluation e;
+  std::vector<RunResult> results;
+  int code = 0;
+  for (int run = 0; run < o.runs && !g_signal; ++run) {
+    RunResult r = run_once(o, scenario, run, lcm, out, err);
+    if (!r.problem.empty()) code = 1;
+    if (!r.log.empty()) {
+      try {
+        sim::evaluate_run(rt::read_log(r.log.string()), scenario.for_run(run), run, e);
+      } catch (const std::exception& ex) {
+        r.problem += (r.problem.empty() ? "" : "; ") + std::string("evaluation failed: ") + ex.what();
+        code = 1;
+      }
+    }
+    out << "run " << run << ": " << (r.problem.empty() ? "ended normally" : r.problem) << std::endl;
+    results.push_back(r);
+  }
+  sim::finish(e);
+  const std::string table = sim::to_table(e);
+  out << '\n' << table;
+  const std::string json = sim::to_json(e);
+  std::ofstream(o.out_dir / "summary.json") << json;
+  if (!o.summary_path.empty()) {
+    if (o.summary_path.has_parent_path()) fs::create_directories(o.summary_path.parent_path());
+    std::ofstream s(o.summary_path);
+    s << json;
+    if (!s) err << "harvest-demo: cannot write " << o.summary_path.string() << '\n';
+  }
+  const fs::path plot_tool = o.root / "tools" / "plot_log.py";
+  if (o.plots && fs::exists(plot_tool) && !results.empty() && !results.back().log.empty()) {
+    const std::string cmd = "/usr/bin/python3 '" + plot_tool.string() + "' '" + results.back().log.string() +
+                            "' --out '" + (o.out_dir / "plots").string() + "' >> '" +
+                            (o.out_dir / "plots.log").string() + "' 2>&1";
+    if (std::system(cmd.c_str()) != 0)
+      err << "harvest-demo: plotting failed, see " << (o.out_dir / "plots.log") << '\n';
+  }
+  write_report(o, e, results, table);
+  out << "\nlogs, summary.json and report.md in " << o.out_dir.string() << std::endl;
+  return g_signal ? 130 : code;
+}
+
+}  // namespace harvest::demo

@@ -1,0 +1,40 @@
+// harvest-demo: runs the simulated harvest end to end. For each run it starts
+// the process set through harvest-launch (the simulator told which scenario
+// and run), records it, starts the harvest with an operator START, prints
+// progress from HARVEST_STATUS, and when the simulator ends the run scores the
+// log against the simulator's ground truth. Finally it prints the summary
+// table and leaves logs, summary.json and report.md (plus plots when
+// tools/plot_log.py is present) in the output folder. docs/demo.md.
+#pragma once
+
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace harvest::demo {
+
+struct DemoOptions {
+  std::filesystem::path root;      // repository root (processes run here)
+  std::filesystem::path bin_dir;   // harvest-* executables
+  std::filesystem::path set_file;  // process set, default config/sets/sim.yaml
+  std::filesystem::path scenario;  // scenario file
+  int runs = 1;
+  std::filesystem::path out_dir;       // default logs/demo/<UTC time>-<scenario>
+  std::filesystem::path summary_path;  // extra copy of summary.json (--summary)
+  std::string lcm_url;                 // default: a private multicast port on this host
+  bool headless = false;               // no terminal control codes; launcher output only to the log
+  bool plots = true;
+  double start_timeout_s = 30.0;  // processes up and START obeyed within this
+  double run_margin_s = 60.0;     // beyond the scenario's time limit before a run is abandoned
+};
+
+// Runs the demo; returns the process exit code (0 when every run ended
+// normally, 1 otherwise, 2 on bad options). Progress goes to `out`.
+int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err);
+
+// Command line -> options (CLI11); returns false and the exit code for --help
+// or errors.
+bool parse_demo_args(int argc, char** argv, DemoOptions& options, int& exit_code);
+
+}  // namespace harvest::demo

@@ -1,0 +1,90 @@
+// The README's main command end to end, headless and short: harvest-demo runs
+// the simulator and the real process set through harvest-launch over real LCM,
+// starts the harvest, and scores the recorded log against the ground truth.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "demo/set_rewrite.hpp"
+#include "runtime/log_io.hpp"
+#include "test_support.hpp"
+
+namespace ht = harvest::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+int run_demo(const std::vector<std::string>& extra, const fs::path& dir, std::string* output) {
+  std::vector<std::string> argv = {ht::bin("harvest-demo"),        "--headless", "--no-plots",           "--lcm-url",
+                                   ht::unique_lcm_url(),           "--out",      (dir / "out").string(), "--summary",
+                                   (dir / "summary.json").string()};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  ht::ChildProcess p(argv, dir / "demo.txt");
+  const int code = p.wait(std::chrono::seconds(240));
+  *output = p.output();
+  return code;
+}
+
+TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
+  ht::TempDir dir;
+  std::string out;
+  ASSERT_EQ(run_demo({"--set", "config/sets/sim-direct.yaml", "--scenario", "config/scenarios/experiment1.yaml"},
+                     dir.path(), &out),
+            0)
+      << out;
+  // Progress went through the harvest states, and the summary says picked.
+  EXPECT_NE(out.find("IR_APPROACH"), std::string::npos) << out;
+  EXPECT_NE(out.find("DETACH"), std::string::npos) << out;
+  const std::string summary = slurp(dir / "summary.json");
+  EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"success_rate\": 1"), std::string::npos) << summary;
+  EXPECT_EQ(summary, slurp(dir / "out" / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "report.md"));
+
+  // The launcher's recording holds the whole graph's traffic.
+  fs::path log;
+  for (const auto& e : fs::directory_iterator(dir / "out"))
+    if (e.path().filename().string().rfind("run0-", 0) == 0 && e.path().string().find(".lcm") != std::string::npos)
+      log = e.path();
+  ASSERT_FALSE(log.empty()) << out;
+  std::set<std::string> channels;
+  for (const auto& r : harvest::rt::read_log(log.string())) channels.insert(r.channel);
+  for (const char* c :
+       {"CAMERA_FIXED", "CAMERA_HAND", "FRUIT_FIXED", "FRUIT_HAND", "TARGETS", "ROBOT_STATE", "ROBOT_COMMAND",
+        "IR_RANGE", "GRIPPER_COMMAND", "HARVEST_STATUS", "SIM_TRUTH", "OPERATOR_COMMAND", "PROCESS_STATUS"})
+    EXPECT_TRUE(channels.count(c)) << "no " << c << " in " << log;
+}
+
+TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
+  ht::TempDir dir;
+  std::string out;
+  EXPECT_EQ(run_demo({"--scenario", (dir.path() / "nope.yaml").string()}, dir.path(), &out), 2);
+  EXPECT_NE(out.find("nope.yaml"), std::string::npos) << out;
+  std::ofstream(dir.path() / "typo.yaml") << "name: t\nfruitt: []\n";
+  EXPECT_EQ(run_demo({"--scenario", (dir.path() / "typo.yaml").string()}, dir.path(), &out), 2);
+  EXPECT_NE(out.find("fruitt"), std::string::npos) << out;
+}
+
+TEST(Demo, SetRewriteKeepsTheSetAndTellsTheSimulatorItsRun) {
+  harvest::demo::SetRewrite rw;
+  rw.set_file = ht::source_path("config/sets/sim-direct.yaml");
+  rw.sim_extra_args = {"--set", "run=3"};
+  const std::string text = harvest::demo::rewrite_set(rw);
+  EXPECT_NE(text.find("run=3"), std::string::npos) << text;
+  EXPECT_NE(text.find("harvest-servo-controller"), std::string::npos) << text;
+  EXPECT_NE(text.find("cwd: " + fs::canonical(ht::source_path(".")).string()), std::string::npos) << text;
+  rw.sim_process = "nosuch";
+  EXPECT_THROW(harvest::demo::rewrite_set(rw), std::runtime_error);
+}
+
+}  // namespace
