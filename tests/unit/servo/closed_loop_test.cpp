@@ -598,6 +598,7 @@ TEST(ClosedLoop, EmergencyStopWhileIdleLatchesToo) {
   Loop loop(experiment_one());
   loop.at(0.5);
   loop.send(0.5005, ch::kEmergencyStop, estop(true, false));
+  ASSERT_FALSE(loop.commands().empty());
   EXPECT_EQ(loop.commands().back().first, loop.bus.now());
   EXPECT_EQ(loop.commands().back().second.type, +robot_command_t::TYPE_STOP);
   for (int8_t c : {operator_command_t::START, operator_command_t::HOME, operator_command_t::RESET_FAULT,
