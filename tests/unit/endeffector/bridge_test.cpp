@@ -562,6 +562,25 @@ TEST(EeBridgeNode, DeviceClosingMidFrameIsCountedAndTheLinkResumes) {
   for (const auto& m : f.run.messages<ir_range_t>("IR_RANGE")) EXPECT_NE(m.raw, 1234);
 }
 
+TEST(EeBridgeNode, LineNoiseIsCountedInTheHeartbeatCountersAndDataGoesOn) {
+  Fixture f;
+  f.start();
+  f.run.run_for(100 * kMilli);
+  std::string bad = ee::encode({900, ee::IrSample{77}});
+  bad[bad.size() - 2] = bad[bad.size() - 2] == '0' ? '1' : '0';
+  f.dev.to_host += "\x01\x02noise" + bad + ee::encode_raw(2, "901,IR,77") + ee::encode({902, ee::IrSample{78}});
+  f.run.run_for(100 * kMilli);
+  EXPECT_EQ(counter(*f.node, "garbage_bytes"), 7);
+  EXPECT_EQ(counter(*f.node, "bad_checksum"), 1);
+  EXPECT_EQ(counter(*f.node, "unknown_version"), 1);
+  const auto ir = f.run.messages<ir_range_t>("IR_RANGE");
+  int n77 = 0, n78 = 0;
+  for (const auto& m : ir) n77 += m.raw == 77, n78 += m.raw == 78;
+  EXPECT_EQ(n77, 0);
+  EXPECT_EQ(n78, 1);
+  EXPECT_EQ(f.node->health(), rt::Health::kOk);
+}
+
 TEST(EeBridgeNode, ConnectThatNeverCompletesTimesOut) {
   Fixture f;
   f.dev.hang_connect = true;

@@ -1,8 +1,9 @@
 // Line protocol: encoding, CRC, every frame type and every error class.
+#include "endeffector/protocol.hpp"
+
 #include <gtest/gtest.h>
 
 #include "endeffector/parser.hpp"
-#include "endeffector/protocol.hpp"
 
 namespace ee = harvest::endeffector;
 
@@ -189,10 +190,42 @@ TEST(EeParser, UnknownTypeCounted) {
 
 TEST(EeParser, BadFieldsCounted) {
   ee::Parser p;
-  for (const char* payload : {"1,IR", "1,IR,abc", "1,IR,-5", "1,IR,70000", "1,IR,5,6", "1,MOVE,1001,0",
-                              "1,GRIP,9,0,0", "1,OPEN,1", "x,IR,5", "1", "1,FAULT,1,a;b"}) {
+  for (const char* payload : {"1,IR", "1,IR,abc", "1,IR,-5", "1,IR,70000", "1,IR,5,6", "1,MOVE,1001,0", "1,GRIP,9,0,0",
+                              "1,OPEN,1", "x,IR,5", "1", "1,FAULT,1,a;b"}) {
     EXPECT_TRUE(p.feed(ee::encode_raw(1, payload)).empty()) << payload;
   }
   EXPECT_EQ(p.counters().bad_fields, 11);
   EXPECT_EQ(p.counters().frames, 0);
+}
+
+TEST(EeParser, MixedStreamEveryErrorCountedOnceAndEveryGoodFrameKeptInOrder) {
+  std::string bad_crc = ee::encode({11, ee::IrSample{5300}});
+  bad_crc[bad_crc.size() - 2] = bad_crc[bad_crc.size() - 2] == '0' ? '1' : '0';  // last CRC digit
+  const std::string good1 = ee::encode({1, ee::IrSample{100}});
+  const std::string good2 = ee::encode({2, ee::Grip{ee::GripState::kClosing, 500, 0}});
+  const std::string good3 = ee::encode({3, ee::Ack{7, 0}});
+  const std::string good4 = ee::encode({4, ee::Pong{1, 1, "fw"}});
+  const std::string stream = "zz" + good1 + bad_crc + good2.substr(0, 6) /* truncated */ + good2 +
+                             ee::encode_raw(3, "5,IR,1") /* unknown version */ + good3 + "$1,6," +
+                             std::string(200, 'A') + "\n" /* oversize */ + ee::encode_raw(1, "7,HUM,40") +
+                             ee::encode_raw(1, "8,IR,x") + "q" + good4;
+  ee::Parser p;
+  const auto out = p.feed(stream);
+  ASSERT_EQ(out.size(), 4u);
+  for (std::size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i].seq, i + 1);
+  EXPECT_EQ(std::get<ee::IrSample>(out[0].message).raw, 100);
+  EXPECT_EQ(std::get<ee::Grip>(out[1].message).state, ee::GripState::kClosing);
+  EXPECT_EQ(std::get<ee::Ack>(out[2].message).command_seq, 7);
+  EXPECT_EQ(std::get<ee::Pong>(out[3].message).firmware, "fw");
+  const auto& c = p.counters();
+  EXPECT_EQ(c.frames, 4);
+  EXPECT_EQ(c.garbage_bytes, 3);  // "zz" and "q"
+  EXPECT_EQ(c.bad_checksum, 1);
+  EXPECT_EQ(c.truncated, 1);
+  EXPECT_EQ(c.unknown_version, 1);
+  EXPECT_EQ(c.oversize, 1);
+  EXPECT_EQ(c.unknown_type, 1);
+  EXPECT_EQ(c.bad_fields, 1);
+  EXPECT_EQ(c.errors(), 6);
+  EXPECT_FALSE(p.last_error().empty());
 }
