@@ -278,8 +278,19 @@ void RobotLinkNode::tick() {
   Eigen::VectorXd cmd = Eigen::VectorXd::Zero(n);
   const bool enabled = have_joints_ && master_->all_in(Cia402State::kOperationEnabled);
   if (!supervisor_.may_move()) {
-    master_->set_goal(DriveGoal::kQuickStop);
     active_ = Active::kNone;
+    if (shutting_down_ && qd_.norm() < 1e-3) {
+      // Exit while stopped by a fault or e-stop: at rest, disable what can be
+      // disabled (a faulted drive stays in Fault, a lost one cannot answer).
+      master_->set_goal(DriveGoal::kDisabled);
+      if (master_->all_in(Cia402State::kSwitchOnDisabled) || master_->phase() != MasterPhase::kRunning ||
+          ++shutdown_wait_ > 20) {
+        master_->stop_nodes();
+        shutdown_done_ = true;
+      }
+    } else {
+      master_->set_goal(DriveGoal::kQuickStop);
+    }
   } else if (shutting_down_) {
     // Ramp to rest at the joint acceleration limits, then disable.
     if (enabled) cmd = kinematics::limit_joint_velocity(config_.model, q_, last_cmd_, cmd, dt).qdot;

@@ -101,6 +101,7 @@ class RobotLinkNode final : public rt::Node {
   Micros last_sync_ = 0;
   bool shutting_down_ = false;
   bool shutdown_done_ = false;
+  int shutdown_wait_ = 0;  // periods waited for the drives to disable while faulted
 };
 
 }  // namespace harvest::arm

@@ -600,5 +600,22 @@ TEST(RobotLinkNode, ShutdownStopsAndDisablesTheDrives) {
   }
 }
 
+TEST(RobotLinkNode, ShutdownWhileFaultedCompletesAndDisablesTheHealthyDrives) {
+  Rig rig(default_config());
+  rig.start();
+  rig.run(0.3, every_20ms(rig, twist_command(0.05, 0.05, 0.0)));
+  rig.drives().drive(2).inject_fault(0x2310);
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_FAULT; }, 0.5));
+  rig.node().begin_shutdown();
+  ASSERT_TRUE(rig.run_until([&] { return rig.node().shutdown_complete(); }, 2.0)) << rig.describe_last();
+  rig.run(0.05);
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  for (std::size_t i = 0; i < rig.drives().size(); ++i) {
+    const auto want = i == 2 ? canopen::Cia402State::kFault : canopen::Cia402State::kSwitchOnDisabled;
+    EXPECT_EQ(rig.drives().drive(i).state(), want) << i;
+    EXPECT_EQ(rig.drives().drive(i).nmt_state(), canopen::NmtState::kStopped) << i;
+  }
+}
+
 }  // namespace
 }  // namespace harvest::arm
