@@ -49,6 +49,10 @@ CameraSetup camera(const config::Node& n) {
   c.noise_std = n.get<double>("noise_std", c.noise_std, {0.0, 50.0});
   c.encoding = n.choice("encoding", c.encoding, {"jpeg", "bgr8"});
   c.jpeg_quality = n.get<int>("jpeg_quality", c.jpeg_quality, {10, 100});
+  c.sensor_width = n.get<int>("sensor_width", c.sensor_width, {16, 8192});
+  c.sensor_height = n.get<int>("sensor_height", c.sensor_height, {16, 8192});
+  if (c.sensor_width * c.model.height != c.sensor_height * c.model.width)
+    n.fail("sensor_height", "a sensor with the image's aspect ratio (the image is the sensor binned)");
   return c;
 }
 
@@ -141,6 +145,16 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.arm.max_angular_speed = a.get<double>("max_angular_speed", s.arm.max_angular_speed, {0.001, 10.0});
   s.arm.max_linear_accel = a.get<double>("max_linear_accel", s.arm.max_linear_accel, {0.01, 50.0});
   s.arm.hand_camera_offset = vec3_mm(a, "hand_camera_offset_mm", s.arm.hand_camera_offset);
+  const auto m = a.child("mounting_truth");
+  s.arm.mounting.position = vec3_mm(m, "translation_mm", Vec3::Zero());
+  {
+    const auto rpy = m.numbers("rpy_deg", {0.0, 0.0, 0.0}, 3);
+    constexpr double kDeg = 3.14159265358979323846 / 180.0;
+    s.arm.mounting.rotation =
+        (Eigen::AngleAxisd(rpy[2] * kDeg, Vec3::UnitZ()) * Eigen::AngleAxisd(rpy[1] * kDeg, Vec3::UnitY()) *
+         Eigen::AngleAxisd(rpy[0] * kDeg, Vec3::UnitX()))
+            .toRotationMatrix();
+  }
 
   if (a.has("variants")) {
     for (const auto& v : a.children("variants")) {
@@ -180,6 +194,13 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.faults.camera_dropout_start_s = f.get<double>("camera_dropout_start_s", -1.0);
   s.faults.camera_dropout_duration_s = f.get<double>("camera_dropout_duration_s", 0.0, {0.0, 3600.0});
   s.faults.ir_stuck_start_s = f.get<double>("ir_stuck_start_s", -1.0);
+  s.faults.drive_fault_start_s = f.get<double>("drive_fault_start_s", -1.0);
+  s.faults.drive_fault_joint = f.get<int>("drive_fault_joint", 1, {0, 64});
+  s.faults.drive_fault_code = f.get<int>("drive_fault_code", 0x7300, {1, 0xFFFF});
+  s.faults.drive_silent_start_s = f.get<double>("drive_silent_start_s", -1.0);
+  s.faults.drive_silent_duration_s = f.get<double>("drive_silent_duration_s", 0.0, {0.0, 3600.0});
+  s.faults.board_silent_start_s = f.get<double>("board_silent_start_s", -1.0);
+  s.faults.board_silent_duration_s = f.get<double>("board_silent_duration_s", 0.0, {0.0, 3600.0});
   return s;
 }
 

@@ -30,9 +30,12 @@ struct Placement {
 struct CameraSetup {
   vision::CameraModel model;  // the TRUE intrinsics and distortion
   double rate_hz = 30.0;
-  double noise_std = 2.0;      // sensor noise [grey levels]
+  double noise_std = 2.0;         // sensor noise [grey levels]
   std::string encoding = "jpeg";  // jpeg | bgr8
   int jpeg_quality = 85;
+  // Full sensor the images are binned from (the size the software's
+  // calibration refers to); the rendered model is scaled to the image size.
+  int sensor_width = 640, sensor_height = 480;
 };
 
 struct FruitSpec {
@@ -51,8 +54,8 @@ struct Box {
 
 struct RandomFruit {
   int count = 0;
-  Box region;                     // base frame [m]
-  double min_separation = 0.09;   // centre to centre [m]
+  Box region;                    // base frame [m]
+  double min_separation = 0.09;  // centre to centre [m]
 };
 
 // A leaf put exactly where the scenario wants it (e.g. to hide one fruit
@@ -65,13 +68,13 @@ struct PlacedLeaf {
 struct Canopy {
   std::vector<PlacedLeaf> placed_leaves;
   int leaves = 0;
-  Box region;                     // where leaf centres are drawn [m]
+  Box region;                                             // where leaf centres are drawn [m]
   double leaf_length_min = 0.05, leaf_length_max = 0.09;  // [m]
   double leaf_width_ratio = 0.45;
   double fruit_clearance = 0.01;  // leaves keep this far from explicit fruit surfaces [m]
   int branches = 0;
-  double branch_radius = 0.012;   // [m]
-  Vec3 trunk_base = Vec3::Zero(); // branches grow from here towards the fruit [m]
+  double branch_radius = 0.012;    // [m]
+  Vec3 trunk_base = Vec3::Zero();  // branches grow from here towards the fruit [m]
   std::vector<std::array<double, 3>> leaf_colours_rgb{{46, 96, 34}, {64, 118, 44}, {34, 74, 28}, {88, 126, 52}};
 };
 
@@ -91,11 +94,15 @@ struct Wind {
 struct ArmSetup {
   Vec3 start_tool_position = Vec3(-0.655, 0.785, -0.251);
   Vec3 start_look_at = Vec3(-0.2286, 1.0668, -0.5402);
-  double reach = 1.35;                   // fruit farther than this from the base origin are unreachable [m]
-  double max_linear_speed = 0.381;       // [m/s]
-  double max_angular_speed = 1.0;        // [rad/s]
-  double max_linear_accel = 1.5;         // [m/s^2]
+  double reach = 1.35;                     // fruit farther than this from the base origin are unreachable [m]
+  double max_linear_speed = 0.381;         // [m/s]
+  double max_angular_speed = 1.0;          // [rad/s]
+  double max_linear_accel = 1.5;           // [m/s^2]
   Vec3 hand_camera_offset = Vec3::Zero();  // in the tool frame [m]
+  // Hardware mode "devices": where the arm's robot base frame truly is in the
+  // scenario (world) frame. The software assumes identity, so this is the
+  // arm's mounting calibration error.
+  Placement mounting;
 };
 
 // One run's variation of a scenario (thesis experiments II and III change
@@ -112,9 +119,9 @@ struct GripperSetup {
   double capture_radius = 0.022;     // lateral tolerance of fruit centre to gripper axis [m]
   double capture_axial_min = -0.03;  // fruit centre along tool z relative to the TCP [m]
   double capture_axial_max = 0.035;
-  double knock_radius = 0.05;        // closing with a fruit this near but outside capture knocks it off [m]
-  double detach_distance = 0.03;     // pull this far from the stem point and the fruit comes off [m]
-  double palm_offset = 0.05;         // palm (IR sensor) behind the TCP along tool z [m]
+  double knock_radius = 0.05;     // closing with a fruit this near but outside capture knocks it off [m]
+  double detach_distance = 0.03;  // pull this far from the stem point and the fruit comes off [m]
+  double palm_offset = 0.05;      // palm (IR sensor) behind the TCP along tool z [m]
 };
 
 struct IrSetup {
@@ -122,16 +129,24 @@ struct IrSetup {
   // to zero below it (the fold-back of a triangulating IR sensor); 10-bit ADC.
   double gain = 26000.0;
   double offset_mm = 4.0;
-  double peak_range = 0.03;    // [m]
-  double max_range = 0.35;     // beyond this the sensor sees nothing [m]
-  double noise_std = 4.0;      // [counts]
+  double peak_range = 0.03;  // [m]
+  double max_range = 0.35;   // beyond this the sensor sees nothing [m]
+  double noise_std = 4.0;    // [counts]
   double rate_hz = 50.0;
 };
 
 struct Faults {
   double camera_dropout_start_s = -1.0;  // fixed camera silent from this time ...
   double camera_dropout_duration_s = 0.0;
-  double ir_stuck_start_s = -1.0;        // IR raw frozen from this time on
+  double ir_stuck_start_s = -1.0;  // IR raw frozen from this time on
+  // Hardware mode "devices" only:
+  double drive_fault_start_s = -1.0;     // a drive faults (EMCY, fault reaction) at this time
+  int drive_fault_joint = 1;             // 1-based joint; 0: every drive
+  int drive_fault_code = 0x7300;         // CiA 301 error code in the EMCY (0x7300: sensor)
+  double drive_silent_start_s = -1.0;    // drive_fault_joint falls silent (no heartbeat, no PDOs) ...
+  double drive_silent_duration_s = 0.0;  // ... for this long (0: for good)
+  double board_silent_start_s = -1.0;    // the end-effector board hangs (sends nothing) ...
+  double board_silent_duration_s = 0.0;  // ... for this long (0: for good)
 };
 
 struct Scenario {
@@ -146,7 +161,7 @@ struct Scenario {
   Lighting lighting;
   Wind wind;
   CameraSetup fixed_camera, hand_camera;
-  Placement fixed_camera_truth;        // true extrinsic (the software has its own)
+  Placement fixed_camera_truth;  // true extrinsic (the software has its own)
   ArmSetup arm;
   std::vector<Variant> variants;  // run k uses variants[k % size], if any
   GripperSetup gripper;

@@ -9,6 +9,7 @@
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
+#include "vision/image_codec.hpp"
 
 namespace harvest::sim {
 namespace {
@@ -17,15 +18,21 @@ rt::Micros period(double hz) { return rt::from_seconds(1.0 / hz); }
 
 const char* state_name(FruitState s) {
   switch (s) {
-    case FruitState::kOnTree: return "on tree";
-    case FruitState::kHeld: return "held";
-    case FruitState::kPicked: return "picked";
-    case FruitState::kKnocked: return "knocked off";
+    case FruitState::kOnTree:
+      return "on tree";
+    case FruitState::kHeld:
+      return "held";
+    case FruitState::kPicked:
+      return "picked";
+    case FruitState::kKnocked:
+      return "knocked off";
   }
   return "?";
 }
 
-Placement start_pose(const ArmSetup& a) { return {look_at_rotation(a.start_tool_position, a.start_look_at), a.start_tool_position}; }
+Placement start_pose(const ArmSetup& a) {
+  return {look_at_rotation(a.start_tool_position, a.start_look_at), a.start_tool_position};
+}
 
 // A fruit counts for the run when the arm can reach it and the fixed camera
 // sees at least half of it at the start (the targets the issue scores).
@@ -37,7 +44,8 @@ SimConfig SimConfig::from_config(const config::Node& n) {
   SimConfig c;
   c.scenario_path = n.file_path("scenario").string();
   c.run = n.get<int>("run", 0, {0, 100000});
-  c.hardware = n.choice("hardware", c.hardware, {"direct"});
+  c.hardware = n.choice("hardware", c.hardware, {"direct", "devices"});
+  if (c.hardware == "devices" || n.has("devices")) c.devices = DevicesConfig::from_config(n.child("devices"));
   c.physics_rate_hz = n.get<double>("physics_rate_hz", c.physics_rate_hz, {10.0, 2000.0});
   c.robot_state_rate_hz = n.get<double>("robot_state_rate_hz", c.robot_state_rate_hz, {1.0, 1000.0});
   c.truth_rate_hz = n.get<double>("truth_rate_hz", c.truth_rate_hz, {0.1, 100.0});
@@ -64,7 +72,25 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
   for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
     fixed_visible_fraction_.push_back(sil[i] > 0 ? static_cast<float>(vis[i]) / static_cast<float>(sil[i]) : 0.0f);
   for (const auto& f : scene_.fruit()) last_states_.push_back(f.state);
+  // Devices mode: the scenario's start pose becomes the drives' joint start
+  // configuration (inverse kinematics of the true arm at its true mounting).
+  if (devices_mode() && !config_.devices)
+    throw std::invalid_argument("hardware 'devices' needs a devices configuration");
+  if (devices_mode()) {
+    const StartConfiguration start =
+        start_joints(config_.devices->model, to_isometry(scenario_.arm.mounting), start_pose(scenario_.arm));
+    device_arm_start_ = start.q;
+    if (start.tilt_rad > 1e-6)
+      spdlog::warn(
+          "the arm cannot take the scenario's start orientation; starting at the start position with the "
+          "tool turned {:.1f} deg toward its home orientation",
+          start.tilt_rad * 180.0 / 3.14159265358979323846);
+  }
 }
+
+const Placement& SimNode::tool() const { return device_arm_ ? device_arm_->tool() : arm_.tool(); }
+
+Placement SimNode::hand_camera() const { return device_arm_ ? device_arm_->hand_camera() : arm_.hand_camera(); }
 
 double SimNode::sim_time() const { return rt::to_seconds(now() - start_); }
 
@@ -73,46 +99,112 @@ void SimNode::on_attach() {
   advertise(channels::kCameraFixed);
   advertise(channels::kCameraHand);
   advertise(kSimTruthChannel);
-  advertise(channels::kRobotState);
-  advertise(channels::kIrRange);
-  advertise(channels::kGripperState);
-
-  subscribe<robot_command_t>(channels::kRobotCommand, [this](const robot_command_t& cmd) {
-    if (!arm_.command(cmd, sim_time())) count("robot_commands_refused");
-  });
-  subscribe<gripper_command_t>(channels::kGripperCommand, [this](const gripper_command_t& cmd) {
-    if (cmd.action == gripper_command_t::ACTION_CLOSE)
-      gripper_.close(sim_time());
-    else if (cmd.action == gripper_command_t::ACTION_OPEN)
-      gripper_.open(sim_time());
-    else
-      count("gripper_commands_ignored");
-  });
+  if (devices_mode()) {
+    attach_devices();
+  } else {
+    advertise(channels::kRobotState);
+    advertise(channels::kIrRange);
+    advertise(channels::kGripperState);
+    subscribe<robot_command_t>(channels::kRobotCommand, [this](const robot_command_t& cmd) {
+      if (!arm_.command(cmd, sim_time())) count("robot_commands_refused");
+    });
+    subscribe<gripper_command_t>(channels::kGripperCommand, [this](const gripper_command_t& cmd) {
+      if (cmd.action == gripper_command_t::ACTION_CLOSE)
+        gripper_.close(sim_time());
+      else if (cmd.action == gripper_command_t::ACTION_OPEN)
+        gripper_.open(sim_time());
+      else
+        count("gripper_commands_ignored");
+    });
+    every(period(config_.robot_state_rate_hz), [this] { publish_robot_state(); });
+    every(period(scenario_.ir.rate_hz), [this] {
+      publish_ir();
+      publish_gripper_state();
+    });
+  }
   subscribe<harvest_status_t>(channels::kHarvestStatus, [this](const harvest_status_t& s) { on_harvest_status(s); });
 
   every(period(config_.physics_rate_hz), [this] { physics_tick(); });
   every(period(scenario_.fixed_camera.rate_hz), [this] { render_camera(true); });
   every(period(scenario_.hand_camera.rate_hz), [this] { render_camera(false); });
   every(period(config_.truth_rate_hz), [this] { publish_truth(); });
-  every(period(config_.robot_state_rate_hz), [this] { publish_robot_state(); });
-  every(period(scenario_.ir.rate_hz), [this] {
-    publish_ir();
-    publish_gripper_state();
-  });
 
   int counted = 0;
-  for (std::size_t i = 0; i < scene_.fruit().size(); ++i) counted += counts(scene_.fruit()[i], fixed_visible_fraction_[i]);
+  for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
+    counted += counts(scene_.fruit()[i], fixed_visible_fraction_[i]);
   spdlog::info("scenario '{}' run {}: {} fruit, {} reachable and at least half visible to the fixed camera",
                scenario_.name, config_.run, scene_.fruit().size(), counted);
   set_health(rt::Health::kOk);
 }
 
+void SimNode::attach_devices() {
+  const DevicesConfig& d = *config_.devices;
+  bus_ = can::open_bus(d.bus);  // throws CanError with the reason
+  device_arm_ = std::make_unique<DeviceArm>(*bus_, d.model, d.drives, device_arm_start_,
+                                            to_isometry(scenario_.arm.mounting), scenario_.arm.hand_camera_offset);
+  if (bus_->fd() >= 0) ctx().watch_fd(bus_->fd(), [this] { device_arm_->drain(now()); });
+  every(d.drive_step_us, [this] {
+    device_arm_->drain(now());
+    device_arm_->advance(now());
+  });
+
+  board_ = std::make_unique<endeffector::BoardEmulator>(d.board);
+  board_->set_gripper(std::make_unique<BoardGripper>(
+      gripper_, [this](rt::Micros t) { return rt::to_seconds(t - start_); }, d.board.default_force_n));
+  board_->set_ir_source([this](rt::Micros) { return ir_raw(); });
+  board_server_ = std::make_unique<endeffector::BoardServer>(*board_, d.board_host, d.board_port);
+  ctx().watch_fd(board_server_->listen_fd(), [this] { board_server_->service(now()); });
+  every(d.board_service_us, [this] { board_server_->service(now()); });
+
+  const Eigen::VectorXd q = device_arm_start_ * (180.0 / 3.14159265358979323846);
+  std::string joints;
+  for (Eigen::Index i = 0; i < q.size(); ++i) joints += (i ? ", " : "") + fmt::format("{:.1f}", q[i]);
+  spdlog::info(
+      "hardware 'devices': {} simulated CiA 402 drives on {} starting at [{}] deg; end-effector board on "
+      "tcp {}:{}",
+      device_arm_->drives().size(), bus_->describe(), joints, d.board_host, board_server_->port());
+}
+
+void SimNode::apply_device_faults(double t) {
+  const Faults& f = scenario_.faults;
+  auto each_drive = [&](auto&& fn) {
+    for (std::size_t i = 0; i < device_arm_->drives().size(); ++i)
+      if (f.drive_fault_joint == 0 || static_cast<int>(i) + 1 == f.drive_fault_joint)
+        fn(device_arm_->drives().drive(i));
+  };
+  if (f.drive_fault_start_s >= 0 && t >= f.drive_fault_start_s && !drive_fault_injected_) {
+    drive_fault_injected_ = true;
+    each_drive([&](simdrive::SimDrive& d) { d.inject_fault(static_cast<uint16_t>(f.drive_fault_code)); });
+    spdlog::warn("t={:.1f}s fault injected: drive fault 0x{:04X} on joint {}", t, f.drive_fault_code,
+                 f.drive_fault_joint);
+  }
+  auto window = [t](double start, double duration) {
+    return start >= 0 && t >= start && (duration <= 0 || t < start + duration);
+  };
+  const bool drive_silent = window(f.drive_silent_start_s, f.drive_silent_duration_s);
+  if (drive_silent != drive_silenced_) {
+    drive_silenced_ = drive_silent;
+    each_drive([&](simdrive::SimDrive& d) { d.set_silent(drive_silent); });
+    spdlog::warn("t={:.1f}s fault injection: joint {} drive {}", t, f.drive_fault_joint,
+                 drive_silent ? "silent" : "talking again");
+  }
+  const bool board_silent = window(f.board_silent_start_s, f.board_silent_duration_s);
+  if (board_silent != board_silenced_) {
+    board_silenced_ = board_silent;
+    board_->set_silent(board_silent);
+    spdlog::warn("t={:.1f}s fault injection: end-effector board {}", t, board_silent ? "hung" : "answering again");
+  }
+}
+
 void SimNode::physics_tick() {
   const double t = sim_time();
-  arm_.step(t);
+  if (device_arm_)
+    apply_device_faults(t);
+  else
+    arm_.step(t);
   scene_.apply_wind(t);
-  gripper_.step(t, now(), scene_, arm_.tool());
-  const Placement& tool = arm_.tool();
+  gripper_.step(t, now(), scene_, tool());
+  const Placement& tool = this->tool();
   const Vec3 axis = tool.rotation.col(2);
   ir_range_ = ray_cast(scene_, tool.position - scenario_.gripper.palm_offset * axis, axis, scenario_.ir.max_range);
   auto& fruit = scene_.fruit();
@@ -153,25 +245,17 @@ void SimNode::check_done() {
   }
 }
 
-image_t SimNode::make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality) {
+image_t SimNode::make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width,
+                            int sensor_height) {
   image_t img;
-  img.width = bgr.cols;
-  img.height = bgr.rows;
+  vision::encode_image(bgr, encoding == "jpeg", jpeg_quality, img);
+  // The frame shows the whole sensor, binned to the output size, as a camera
+  // driver with a smaller output resolution publishes it.
+  img.sensor_width = sensor_width > 0 ? sensor_width : bgr.cols;
+  img.sensor_height = sensor_height > 0 ? sensor_height : bgr.rows;
   img.roi_px[0] = img.roi_px[1] = 0.0f;
-  img.roi_px[2] = static_cast<float>(bgr.cols);
-  img.roi_px[3] = static_cast<float>(bgr.rows);
-  img.sensor_width = bgr.cols;
-  img.sensor_height = bgr.rows;
-  if (encoding == "jpeg") {
-    img.encoding = image_t::ENCODING_JPEG;
-    img.stride = 0;
-    cv::imencode(".jpg", bgr, img.data, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
-  } else {
-    img.encoding = image_t::ENCODING_BGR8;
-    img.stride = bgr.cols * 3;
-    img.data.assign(bgr.data, bgr.data + bgr.total() * 3);
-  }
-  img.size = static_cast<int32_t>(img.data.size());
+  img.roi_px[2] = static_cast<float>(img.sensor_width);
+  img.roi_px[3] = static_cast<float>(img.sensor_height);
   return img;
 }
 
@@ -185,8 +269,8 @@ void SimNode::render_camera(bool fixed) {
   }
   const CameraSetup& cam = fixed ? scenario_.fixed_camera : scenario_.hand_camera;
   Renderer& r = fixed ? fixed_renderer_ : hand_renderer_;
-  const cv::Mat& bgr = r.render(scene_, fixed ? scenario_.fixed_camera_truth : arm_.hand_camera());
-  image_t img = make_image(bgr, cam.encoding, cam.jpeg_quality);
+  const cv::Mat& bgr = r.render(scene_, fixed ? scenario_.fixed_camera_truth : hand_camera());
+  image_t img = make_image(bgr, cam.encoding, cam.jpeg_quality, cam.sensor_width, cam.sensor_height);
   img.header.utime = now();
   img.header.frame_id = fixed ? "camera_fixed" : "camera_hand";
   img.header.source_seq = -1;
@@ -200,8 +284,8 @@ void SimNode::publish_truth() {
   m.header.source_seq = -1;
   m.scenario = scenario_.name;
   m.run = config_.run;
-  to_pose(arm_.tool(), m.tool_pose);
-  to_pose(arm_.hand_camera(), m.hand_camera_pose);
+  to_pose(tool(), m.tool_pose);
+  to_pose(hand_camera(), m.hand_camera_pose);
   m.gripper_opening = static_cast<float>(gripper_.opening());
   m.ir_true_range_m = ir_range_ ? static_cast<float>(*ir_range_) : -1.0f;
   for (std::size_t i = 0; i < scene_.fruit().size(); ++i) {
@@ -233,13 +317,18 @@ void SimNode::publish_robot_state() {
   publish(channels::kRobotState, s);
 }
 
-void SimNode::publish_ir() {
+int SimNode::ir_raw() {
   const double t = sim_time();
   int raw = ir_.sample(ir_range_);
   if (scenario_.faults.ir_stuck_start_s >= 0 && t >= scenario_.faults.ir_stuck_start_s) {
     if (ir_stuck_raw_ < 0) ir_stuck_raw_ = raw;
     raw = ir_stuck_raw_;
   }
+  return raw;
+}
+
+void SimNode::publish_ir() {
+  const int raw = ir_raw();
   ir_range_t m;
   m.header.utime = now();
   m.header.frame_id = "ir";
@@ -267,11 +356,21 @@ void SimNode::publish_gripper_state() {
   m.header.frame_id = "gripper";
   m.header.source_seq = -1;
   switch (gripper_.phase()) {
-    case GripperPhase::kOpen: m.state = gripper_state_t::STATE_OPEN; break;
-    case GripperPhase::kClosing: m.state = gripper_state_t::STATE_CLOSING; break;
-    case GripperPhase::kClosed: m.state = gripper_state_t::STATE_CLOSED; break;
-    case GripperPhase::kHolding: m.state = gripper_state_t::STATE_HOLDING; break;
-    case GripperPhase::kOpening: m.state = gripper_state_t::STATE_OPENING; break;
+    case GripperPhase::kOpen:
+      m.state = gripper_state_t::STATE_OPEN;
+      break;
+    case GripperPhase::kClosing:
+      m.state = gripper_state_t::STATE_CLOSING;
+      break;
+    case GripperPhase::kClosed:
+      m.state = gripper_state_t::STATE_CLOSED;
+      break;
+    case GripperPhase::kHolding:
+      m.state = gripper_state_t::STATE_HOLDING;
+      break;
+    case GripperPhase::kOpening:
+      m.state = gripper_state_t::STATE_OPENING;
+      break;
   }
   m.position = static_cast<float>(gripper_.opening());
   m.force_n = gripper_.phase() == GripperPhase::kHolding ? 10.0f : 0.0f;

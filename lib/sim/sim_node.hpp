@@ -6,16 +6,24 @@
 // the end-effector bridge (follows GRIPPER_COMMAND, publishes IR_RANGE and
 // GRIPPER_STATE), so perception and the servo controller run against it with
 // no device protocol in between.
+//
+// Hardware mode "devices": the simulator plays only the hardware. The arm is
+// simulated CiA 402 drives on the CAN bus (its true pose is the forward
+// kinematics of the drives' joint positions), the end-effector board is served
+// on its TCP port, and the field's harvest-robot-link and harvest-ee-bridge
+// publish ROBOT_STATE, IR_RANGE and GRIPPER_STATE (see sim/devices.hpp).
 #pragma once
 
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "endeffector/board_server.hpp"
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/image_t.hpp"
 #include "runtime/node.hpp"
 #include "sim/cartesian_arm.hpp"
+#include "sim/devices.hpp"
 #include "sim/hand.hpp"
 #include "sim/renderer.hpp"
 #include "sim/scene.hpp"
@@ -27,7 +35,8 @@ inline constexpr const char* kSimTruthChannel = "SIM_TRUTH";  // sim_truth_t
 struct SimConfig {
   std::string scenario_path;
   int run = 0;
-  std::string hardware = "direct";  // only "direct" so far (see docs/simulator.md)
+  std::string hardware = "direct";       // "direct" or "devices" (see docs/simulator.md)
+  std::optional<DevicesConfig> devices;  // hardware "devices": drives, bus and board
   double physics_rate_hz = 100.0;
   double robot_state_rate_hz = 100.0;
   double truth_rate_hz = 20.0;
@@ -44,9 +53,15 @@ class SimNode final : public rt::Node {
   const Scene& scene() const { return scene_; }
   const Gripper& gripper() const { return gripper_; }
   const CartesianArm& arm() const { return arm_; }
+  bool devices_mode() const { return config_.hardware == "devices"; }
+  // The arm's true tool and hand camera poses (world frame), in either mode.
+  const Placement& tool() const;
+  Placement hand_camera() const;
 
-  // Encodes a rendered BGR frame as the camera drivers publish it.
-  static image_t make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality);
+  // Encodes a rendered BGR frame as the camera drivers publish it; the frame
+  // is the whole sensor of the given size (0: the frame's own size), binned.
+  static image_t make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width = 0,
+                            int sensor_height = 0);
 
  protected:
   void on_attach() override;
@@ -61,11 +76,20 @@ class SimNode final : public rt::Node {
   void publish_gripper_state();
   void on_harvest_status(const harvest_status_t& status);
   void check_done();
+  void attach_devices();
+  void apply_device_faults(double t);
+  int ir_raw();
 
   SimConfig config_;
   Scenario scenario_;
   Scene scene_;
   CartesianArm arm_;
+  Eigen::VectorXd device_arm_start_;  // joint start configuration (devices mode)
+  std::unique_ptr<can::CanBus> bus_;
+  std::unique_ptr<DeviceArm> device_arm_;
+  std::unique_ptr<endeffector::BoardEmulator> board_;
+  std::unique_ptr<endeffector::BoardServer> board_server_;
+  bool drive_fault_injected_ = false, drive_silenced_ = false, board_silenced_ = false;
   Gripper gripper_;
   IrSensor ir_;
   Renderer fixed_renderer_, hand_renderer_;

@@ -1,0 +1,166 @@
+#include "sim/devices.hpp"
+
+#include <stdexcept>
+
+#include "kinematics/chain.hpp"
+#include "kinematics/diff_ik.hpp"
+#include "simdrive/sim_drives_node.hpp"
+
+namespace harvest::sim {
+
+DevicesConfig DevicesConfig::from_config(const config::Node& n) {
+  DevicesConfig c;
+  const auto path = n.file_path("drives_config");
+  c.drives_config_path = path.string();
+  auto doc = config::Document::load_file(path);
+  try {
+    // The same reader as harvest-sim-drives, so the simulator's drives are
+    // exactly the ones that process would simulate.
+    const simdrive::SimDrivesConfig drives = simdrive::SimDrivesConfig::from_config(doc.root());
+    c.model = kinematics::ArmModel::load(doc.root().file_path("arm_model", "k1207i.yaml").string());
+    c.drives = drives.drives;
+    c.drive_step_us = drives.step_us;
+    c.bus = drives.bus;
+    doc.check_unused();
+  } catch (const config::Error& e) {
+    n.fail("drives_config", std::string("a valid simulated drives file: ") + e.what());
+  }
+  c.bus = n.get<std::string>("bus", c.bus);
+  const auto b = n.child("board");
+  c.board_host = b.get<std::string>("host", c.board_host);
+  c.board_port = b.get<int>("port", c.board_port, {1, 65535});
+  c.board_service_us = b.get<int>("service_period_ms", 5, {1, 100}) * 1000;
+  c.board.ir_rate_hz = b.get<double>("ir_rate_hz", c.board.ir_rate_hz, {1.0, 2000.0});
+  c.board.grip_rate_hz = b.get<double>("grip_rate_hz", c.board.grip_rate_hz, {1.0, 1000.0});
+  c.board.default_force_n = b.get<double>("default_force_n", c.board.default_force_n, {0.0, 1000.0});
+  c.board.firmware = b.get<std::string>("firmware", "harvest-sim-1");
+  return c;
+}
+
+Placement to_placement(const Eigen::Isometry3d& t) { return {t.linear(), t.translation()}; }
+
+Eigen::Isometry3d to_isometry(const Placement& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = p.rotation;
+  t.translation() = p.position;
+  return t;
+}
+
+StartConfiguration start_joints(const kinematics::ArmModel& model, const Eigen::Isometry3d& mounting,
+                                const Placement& start) {
+  const Eigen::Isometry3d to_robot = mounting.inverse();
+  auto solve = [&](const Mat3& rotation) {
+    return kinematics::solve_pose(model, to_robot * to_isometry({rotation, start.position}), model.home);
+  };
+  if (auto q = solve(start.rotation)) return {*q, 0.0};
+  // The exact orientation is out of the wrist's range: keep the position and
+  // turn the tool toward its orientation at the model's home (a comfortable
+  // one) only as far as needed, by bisection on the rotation between them.
+  const Eigen::Quaterniond want(start.rotation);
+  const Eigen::Quaterniond home((mounting * kinematics::tool_pose(model, model.home)).linear());
+  auto blended = [&](double f) { return Mat3(want.slerp(f, home).toRotationMatrix()); };
+  auto q = solve(blended(1.0));
+  if (!q) {
+    const Vec3 p = start.position * 1e3;
+    throw std::runtime_error("the arm '" + model.name + "' cannot reach the scenario's start position (" +
+                             std::to_string(p.x()) + ", " + std::to_string(p.y()) + ", " + std::to_string(p.z()) +
+                             ") mm within its joint limits");
+  }
+  double lo = 0.0, hi = 1.0;  // lo: unreachable, hi: reachable
+  for (int i = 0; i < 6; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (auto qm = solve(blended(mid))) {
+      hi = mid;
+      q = qm;
+    } else {
+      lo = mid;
+    }
+  }
+  return {*q, want.angularDistance(want.slerp(hi, home))};
+}
+
+std::vector<simdrive::SimDriveConfig> DeviceArm::with_start(std::vector<simdrive::SimDriveConfig> d,
+                                                            const Eigen::VectorXd& q0) {
+  if (static_cast<Eigen::Index>(d.size()) != q0.size())
+    throw std::invalid_argument("DeviceArm: " + std::to_string(d.size()) + " drives for " + std::to_string(q0.size()) +
+                                " joints");
+  for (std::size_t i = 0; i < d.size(); ++i) d[i].initial_position = q0[static_cast<Eigen::Index>(i)];
+  return d;
+}
+
+DeviceArm::DeviceArm(can::CanBus& bus, kinematics::ArmModel model, std::vector<simdrive::SimDriveConfig> drives,
+                     const Eigen::VectorXd& q0, const Eigen::Isometry3d& mounting, const Vec3& hand_camera_offset)
+    : model_(std::move(model)),
+      set_(bus, with_start(std::move(drives), q0)),
+      mounting_(mounting),
+      hand_camera_offset_(hand_camera_offset) {
+  if (static_cast<int>(set_.size()) != model_.dof())
+    throw std::invalid_argument("DeviceArm: the drive list does not match the arm model");
+  update_pose();
+}
+
+void DeviceArm::advance(rt::Micros now) {
+  set_.advance(now);
+  update_pose();
+}
+
+Eigen::VectorXd DeviceArm::joints() const {
+  const auto p = set_.positions();
+  return Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size()));
+}
+
+void DeviceArm::update_pose() {
+  const Eigen::VectorXd q = joints();
+  tool_ = to_placement(mounting_ * kinematics::tool_pose(model_, q));
+  hand_camera_ = to_placement(mounting_ * kinematics::camera_pose(model_, q));
+  hand_camera_.position += hand_camera_.rotation * hand_camera_offset_;
+}
+
+void BoardGripper::command(const endeffector::GripperGoal& goal, rt::Micros now) {
+  using Kind = endeffector::GripperGoal::Kind;
+  const double t = seconds_(now);
+  force_limit_ = goal.force_n > 0 ? goal.force_n : default_force_;
+  switch (goal.kind) {
+    case Kind::kOpen:
+      gripper_.open(t);
+      break;
+    case Kind::kClose:
+      gripper_.close(t);
+      break;
+    case Kind::kMove:  // the fingers have two ends of travel: move towards the nearer one
+      if (goal.position < gripper_.opening())
+        gripper_.close(t);
+      else if (goal.position > gripper_.opening())
+        gripper_.open(t);
+      break;
+    case Kind::kStop:
+      break;  // the simulated fingers always finish a stroke
+  }
+}
+
+endeffector::GripperReading BoardGripper::read(rt::Micros /*now*/) {
+  using endeffector::GripState;
+  endeffector::GripperReading r;
+  switch (gripper_.phase()) {
+    case GripperPhase::kOpen:
+      r.state = GripState::kOpen;
+      break;
+    case GripperPhase::kClosing:
+      r.state = GripState::kClosing;
+      break;
+    case GripperPhase::kClosed:
+      r.state = GripState::kClosed;
+      break;
+    case GripperPhase::kHolding:
+      r.state = GripState::kHolding;
+      break;
+    case GripperPhase::kOpening:
+      r.state = GripState::kOpening;
+      break;
+  }
+  r.position = gripper_.opening();
+  r.force_n = gripper_.phase() == GripperPhase::kHolding ? force_limit_ : 0.0;
+  return r;
+}
+
+}  // namespace harvest::sim
