@@ -330,12 +330,20 @@ DecompositionResult decompose_homography(const Matrix3d& H, const Points3& m_ref
       res.status = Status::kNoValidSolution;
       return res;
     }
+    // Prefer the solution closest to the reference normal, else the one
+    // with the most points passing the visibility test.
+    auto visible_count = [&](const Decomposition& d) {
+      int n = 0;
+      const Vector3d nc = d.R * d.n;
+      for (const auto& m : m_ref) n += d.n.dot(m) > 0;
+      for (const auto& m : m_cur) n += nc.dot(m) > 0;
+      return n;
+    };
     res.candidates = all;
-    if (reference_normal) {
-      std::sort(res.candidates.begin(), res.candidates.end(), [&](const Decomposition& a, const Decomposition& b) {
-        return a.n.dot(*reference_normal) > b.n.dot(*reference_normal);
-      });
-    }
+    std::stable_sort(res.candidates.begin(), res.candidates.end(), [&](const Decomposition& a, const Decomposition& b) {
+      if (reference_normal) return a.n.dot(*reference_normal) > b.n.dot(*reference_normal);
+      return visible_count(a) > visible_count(b);
+    });
     res.best = res.candidates.front();
     res.status = Status::kOk;
     return res;

@@ -101,7 +101,7 @@ struct DecompositionResult {
 // When no solution passes the visibility test but every |x_h| is below
 // kNegligibleTranslation (noise at the goal pose: the normal is unobservable
 // there), all solutions are kept and the result is kOk, as for a pure rotation.
-inline constexpr double kNegligibleTranslation = 1e-3;
+inline constexpr double kNegligibleTranslation = 1e-2;  // 1 % of the plane distance
 DecompositionResult decompose_homography(const Eigen::Matrix3d& H, const Points3& m_ref, const Points3& m_cur,
                                          const std::optional<Eigen::Vector3d>& reference_normal = std::nullopt);
 

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "servo/geometry.hpp"
+#include "servo/tbz_approach.hpp"
 
 namespace harvest::servo {
 
@@ -49,6 +50,7 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
 std::unique_ptr<ApproachStrategy> make_approach(const ServoConfig& config) {
   if (config.approach_mode == "reconstruction")
     return std::make_unique<ReconstructionApproach>(config.gains, config.hand_camera);
+  if (config.approach_mode == "tbz") return std::make_unique<TbzApproach>(tbz_params_from(config));
   throw std::invalid_argument("unknown approach_mode '" + config.approach_mode + "'");
 }
 

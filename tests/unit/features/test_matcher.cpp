@@ -100,8 +100,14 @@ TEST(Matcher, UnrelatedImagesAreNotMatched) {
   m.set_desired(ft::render_plane(ft::sticker_texture(400, 5), placement(0.6, 0, 30, 0), size));
   const auto r = m.match(ft::render_plane(ft::sticker_texture(400, 6), placement(0.6, 0, 30, 0), size));
   std::printf("unrelated: %s\n", r.text.c_str());
-  // Either too few, or a handful of chance matches at most.
-  EXPECT_TRUE(r.status != f::MatchStatus::kOk || r.num_inliers < 12) << r.text;
+  EXPECT_EQ(r.status, f::MatchStatus::kTooFew) << r.text;
+  // With min_inliers 4, chance matches would pass: four pairs always fit a homography.
+  f::MatcherParams four;
+  four.min_inliers = 4;
+  f::DesiredImageMatcher m4(four);
+  m4.set_desired(ft::render_plane(ft::sticker_texture(400, 5), placement(0.6, 0, 30, 0), size));
+  const auto r4 = m4.match(ft::render_plane(ft::sticker_texture(400, 6), placement(0.6, 0, 30, 0), size));
+  std::printf("unrelated, min_inliers 4: %s (%s)\n", f::to_string(r4.status), r4.text.c_str());
 }
 
 TEST(Matcher, DeterministicForTheSameInput) {

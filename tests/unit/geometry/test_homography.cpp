@@ -365,6 +365,7 @@ TEST(Homography, NoisyViewsAtTheGoalStillDecompose) {
   std::mt19937_64 rng(29);
   std::normal_distribution<double> noise(0.0, 0.3);
   int fallbacks = 0;
+  std::vector<double> rot;
   for (int trial = 0; trial < 100; ++trial) {
     Scene s = make_scene(rng, 30);
     // Re-project with a tiny motion: 1e-5 of the plane distance, 0.01 deg.
@@ -380,9 +381,14 @@ TEST(Homography, NoisyViewsAtTheGoalStillDecompose) {
     const auto dec = g::decompose_homography(*H, m_ref, m_cur, s.n);
     ASSERT_TRUE(dec.ok()) << trial << ": " << g::to_string(dec.status);
     EXPECT_TRUE(dec.best.R.allFinite() && dec.best.x_h.allFinite() && dec.best.n.allFinite());
-    EXPECT_LT(rotation_error_deg(dec.best.R, s.R), 0.2) << trial;
-    EXPECT_LT(dec.best.x_h.norm(), 1e-2) << trial;  // 0.3 px noise: a few 1e-3
+    EXPECT_LT(rotation_error_deg(dec.best.R, s.R), 0.5) << trial;  // noise level: ~|x_h|
+    EXPECT_LT(dec.best.x_h.norm(), 1e-2) << trial;                 // 0.3 px noise: a few 1e-3
     fallbacks += dec.candidates.size() == g::decompose_homography_all(*H).size() ? 1 : 0;
+    rot.push_back(rotation_error_deg(dec.best.R, s.R));
   }
-  std::printf("near-goal decompositions where no solution passed the visibility test: %d of 100\n", fallbacks);
+  std::sort(rot.begin(), rot.end());
+  std::printf(
+      "near goal, 0.3 px noise: %d of 100 with no solution passing the visibility test; rotation error median %.3f "
+      "deg, max %.3f deg\n",
+      fallbacks, rot[50], rot.back());
 }
