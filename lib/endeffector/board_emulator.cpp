@@ -20,19 +20,29 @@ void LinearGripper::advance(Micros now) {
   const double stop_at = (closing && object_ > target_) ? object_ : target_;
   position_ = closing ? std::max(stop_at, position_ - step) : std::min(target_, position_ + step);
   if (position_ != stop_at) return;
-  if (closing && object_ > target_) state_ = GripState::kHolding;
-  else if (position_ <= 0.0) state_ = GripState::kClosed;
-  else if (position_ >= 1.0) state_ = GripState::kOpen;
-  else state_ = GripState::kStopped;
+  if (closing && object_ > target_)
+    state_ = GripState::kHolding;
+  else if (position_ <= 0.0)
+    state_ = GripState::kClosed;
+  else if (position_ >= 1.0)
+    state_ = GripState::kOpen;
+  else
+    state_ = GripState::kStopped;
 }
 
 void LinearGripper::command(const GripperGoal& goal, Micros now) {
   advance(now);
   force_limit_ = goal.force_n > 0 ? goal.force_n : default_force_;
   switch (goal.kind) {
-    case GripperGoal::Kind::kOpen: target_ = 1.0; break;
-    case GripperGoal::Kind::kClose: target_ = 0.0; break;
-    case GripperGoal::Kind::kMove: target_ = std::clamp(goal.position, 0.0, 1.0); break;
+    case GripperGoal::Kind::kOpen:
+      target_ = 1.0;
+      break;
+    case GripperGoal::Kind::kClose:
+      target_ = 0.0;
+      break;
+    case GripperGoal::Kind::kMove:
+      target_ = std::clamp(goal.position, 0.0, 1.0);
+      break;
     case GripperGoal::Kind::kStop:
       target_ = position_;
       state_ = GripState::kStopped;
@@ -58,7 +68,8 @@ EmulatorConfig EmulatorConfig::from_config(const config::Node& node) {
 }
 
 BoardEmulator::BoardEmulator(EmulatorConfig config)
-    : config_(std::move(config)), gripper_(std::make_unique<LinearGripper>(config_.full_travel_s, config_.default_force_n)) {}
+    : config_(std::move(config)),
+      gripper_(std::make_unique<LinearGripper>(config_.full_travel_s, config_.default_force_n)) {}
 
 void BoardEmulator::new_session(Micros now) {
   parser_.reset();
@@ -82,6 +93,7 @@ void BoardEmulator::receive(std::span<const uint8_t> bytes, Micros now) {
 
 void BoardEmulator::handle(const Frame& frame, Micros now) {
   ++commands_;
+  if (observer_) observer_(frame, now);
   auto newtons = [](int32_t mn) { return mn * 1e-3; };
   auto accept = [&](const GripperGoal& goal) {
     if (fault_code_ != 0) {
@@ -95,13 +107,18 @@ void BoardEmulator::handle(const Frame& frame, Micros now) {
   std::visit(
       [&](const auto& m) {
         using T = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<T, Ping>) emit(Pong{m.token, kProtocolVersion, config_.firmware});
-        else if constexpr (std::is_same_v<T, Open>) accept({GripperGoal::Kind::kOpen, 1.0, 0.0});
-        else if constexpr (std::is_same_v<T, Close>) accept({GripperGoal::Kind::kClose, 0.0, newtons(m.force_mn)});
+        if constexpr (std::is_same_v<T, Ping>)
+          emit(Pong{m.token, kProtocolVersion, config_.firmware});
+        else if constexpr (std::is_same_v<T, Open>)
+          accept({GripperGoal::Kind::kOpen, 1.0, 0.0});
+        else if constexpr (std::is_same_v<T, Close>)
+          accept({GripperGoal::Kind::kClose, 0.0, newtons(m.force_mn)});
         else if constexpr (std::is_same_v<T, Move>)
           accept({GripperGoal::Kind::kMove, m.position_permille * 1e-3, newtons(m.force_mn)});
-        else if constexpr (std::is_same_v<T, Stop>) accept({GripperGoal::Kind::kStop, 0.0, 0.0});
-        else emit(Ack{frame.seq, 1});  // telemetry types are not commands
+        else if constexpr (std::is_same_v<T, Stop>)
+          accept({GripperGoal::Kind::kStop, 0.0, 0.0});
+        else
+          emit(Ack{frame.seq, 1});  // telemetry types are not commands
       },
       frame.message);
 }

@@ -44,7 +44,8 @@ class GripperModel {
 // with the commanded force.
 class LinearGripper final : public GripperModel {
  public:
-  LinearGripper(double full_travel_s, double default_force_n) : travel_s_(full_travel_s), default_force_(default_force_n) {}
+  LinearGripper(double full_travel_s, double default_force_n)
+      : travel_s_(full_travel_s), default_force_(default_force_n) {}
   void command(const GripperGoal& goal, Micros now) override;
   GripperReading read(Micros now) override;
   void set_object_position(double p) { object_ = p; }  // <= 0: nothing between the fingers
@@ -80,6 +81,14 @@ class BoardEmulator {
   explicit BoardEmulator(EmulatorConfig config = {});
 
   void set_ir_source(IrSource source) { ir_source_ = std::move(source); }
+  // A constant IR reading (replaces any IR source); for hosts that push values.
+  void set_ir_raw(int32_t raw) {
+    ir_source_ = [raw](Micros) { return raw; };
+  }
+  // Called with every valid frame from the host, before the board handles it
+  // (hosts and tests observe commands; faulted boards still see them here).
+  using CommandObserver = std::function<void(const Frame& frame, Micros now)>;
+  void set_command_observer(CommandObserver observer) { observer_ = std::move(observer); }
   void set_gripper(std::unique_ptr<GripperModel> model) { gripper_ = std::move(model); }
   GripperModel& gripper() { return *gripper_; }
 
@@ -103,6 +112,7 @@ class BoardEmulator {
 
   EmulatorConfig config_;
   IrSource ir_source_;
+  CommandObserver observer_;
   std::unique_ptr<GripperModel> gripper_;
   Parser parser_;
   std::string out_;

@@ -188,3 +188,20 @@ TEST(EeTransport, ConfigChoosesTransportAndRejectsBadValues) {
   auto bad_host = harvest::config::Document::load_string("transport: tcp\ntcp: {host: board.local, port: 4001}\n");
   EXPECT_THROW(ee::make_stream_from_config(bad_host.root()), ee::TransportError);
 }
+
+TEST(EeEmulator, HostCanPushIrValuesAndObserveCommands) {
+  ee::BoardEmulator board;
+  std::vector<ee::Frame> seen;
+  board.set_command_observer([&](const ee::Frame& f, harvest::rt::Micros) { seen.push_back(f); });
+  board.set_ir_raw(512);
+  board.new_session(0);
+  ee::Parser host;
+  board.receive(bytes_of(ee::encode({3, ee::Close{4000}}) + ee::encode({4, ee::Ping{1}})), 0);
+  const auto frames = host.feed(board.produce(0));
+  ASSERT_EQ(only<ee::IrSample>(frames).size(), 1u);
+  EXPECT_EQ(only<ee::IrSample>(frames)[0].raw, 512);
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_EQ(seen[0].seq, 3);
+  EXPECT_EQ(std::get<ee::Close>(seen[0].message).force_mn, 4000);
+  EXPECT_TRUE(std::holds_alternative<ee::Ping>(seen[1].message));
+}
