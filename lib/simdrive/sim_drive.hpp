@@ -35,8 +35,10 @@ struct SimDriveConfig {
   double initial_position = 0.0;         // [rad]
   // Communication watchdog, as real drives have (abort connection option):
   // with torque on and no SYNC for this long the drive goes to fault
-  // reaction (ramp down) and Fault with error code 0x8100. 0 = off.
-  Micros sync_timeout_us = 100'000;
+  // reaction (ramp down) and Fault with error code 0x8100. 0 = off (the
+  // default, so embedders keep the old behaviour; harvest-sim-drives sets
+  // it from sync_timeout_ms).
+  Micros sync_timeout_us = 0;
 };
 
 class SimDrive {

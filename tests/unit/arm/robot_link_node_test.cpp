@@ -63,8 +63,10 @@ class Rig final : public rt::Dispatcher {
     auto& drive_end = wire_.attach();
     auto drives_doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/drives_k1207i.yaml");
     auto dc = simdrive::sim_drive_configs(model_, drives_doc.root(), 1.5, 3.0);
-    for (std::size_t i = 0; i < dc.size(); ++i)
+    for (std::size_t i = 0; i < dc.size(); ++i) {
       dc[i].initial_position = config.model.home[static_cast<Eigen::Index>(i)];
+      dc[i].sync_timeout_us = 100'000;  // the drives' own communication watchdog
+    }
     drives_ = std::make_unique<simdrive::SimDriveSet>(drive_end, dc);
     if (before_link) before_link(*drives_);
     auto& link_end = wire_.attach();
