@@ -201,9 +201,15 @@ def plot_trajectory(log, out):
             ax.plot([p[a] for p in est], [p[b] for p in est], ".", ms=2, color="tab:orange", alpha=0.5, label="TARGETS")
         if fruit:
             ax.plot([p[a] for p in fruit], [p[b] for p in fruit], "r*", ms=9, label="true fruit")
+        # Outlying estimates must not hide the trajectory.
+        pts = tool + fruit
+        for setlim, k in ((ax.set_xlim, a), (ax.set_ylim, b)):
+            lo, hi = min(p[k] for p in pts), max(p[k] for p in pts)
+            pad = max(0.1, 0.15 * (hi - lo))
+            setlim(lo - pad, hi + pad)
         ax.set_xlabel("xyz"[a] + " [m]")
         ax.set_ylabel("xyz"[b] + " [m]")
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
     fig.suptitle(f"tool trajectory in the base frame: {os.path.basename(log.path)}")
@@ -312,6 +318,7 @@ def main():
     default_tool = os.path.join(os.environ.get("HARVEST_BUILD_DIR", os.path.join(ROOT, "build")), "bin", "harvest-log")
     ap.add_argument("--harvest-log", default=default_tool, help="harvest-log executable")
     ap.add_argument("--frames", type=int, default=4, help="frames per camera in detections.png")
+    ap.add_argument("--plots", default="servo,trajectory,depth,detections", help="which plots (comma-separated)")
     a = ap.parse_args()
     if not os.path.exists(a.harvest_log):
         raise SystemExit(f"plot_log: {a.harvest_log} not found (build first, or pass --harvest-log)")
@@ -320,11 +327,12 @@ def main():
     if not log.channels:
         raise SystemExit("plot_log: empty log")
     written = []
-    for name, fn in (("servo.png", plot_servo), ("trajectory.png", plot_trajectory), ("depth.png", plot_depth)):
-        p = fn(log, os.path.join(a.out, name))
+    wanted = set(a.plots.split(","))
+    for name, fn in (("servo", plot_servo), ("trajectory", plot_trajectory), ("depth", plot_depth)):
+        p = fn(log, os.path.join(a.out, name + ".png")) if name in wanted else None
         if p:
             written.append(p)
-    p = plot_detections(log, os.path.join(a.out, "detections.png"), a.frames)
+    p = plot_detections(log, os.path.join(a.out, "detections.png"), a.frames) if "detections" in wanted else None
     if p:
         written.append(p)
     for p in written:

@@ -178,10 +178,12 @@ TEST(LogTools, InfoAndExportOnAReferenceLog) {
 
 TEST(LogTools, PlotsFromReferenceLogs) {
   ht::TempDir dir;
-  for (const char* log : {"logs/exp1-harvest.lcmlog", "logs/exp1-vision.lcmlog"}) {
+  const std::vector<std::pair<std::string, std::string>> runs = {{"logs/exp1-harvest.lcmlog", "servo,trajectory,depth"},
+                                                                 {"logs/exp1-vision.lcmlog", "detections"}};
+  for (const auto& [log, plots] : runs) {
     const auto out = dir / std::filesystem::path(log).stem();
     auto r = run({"/usr/bin/python3", ht::source_path("tools/plot_log.py"), ht::source_path(log), "--out", out.string(),
-                  "--harvest-log", ht::bin("harvest-log")},
+                  "--harvest-log", ht::bin("harvest-log"), "--plots", plots},
                  dir / "plot.txt");
     ASSERT_EQ(r.code, 0) << r.output;
   }
