@@ -38,7 +38,7 @@ SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
   c.drives = sim_drive_configs(model, drives_doc.root(), margin, qs);
   drives_doc.check_unused();
   c.step_us = root.get<int>("step_ms", 1, {1, 100}) * 1000;
-  const Micros sync_timeout = root.get<int>("sync_timeout_ms", 250, {0, 10000}) * 1000;
+  const Micros sync_timeout = root.get<int>("sync_timeout_ms", 500, {0, 10000}) * 1000;
   for (auto& d : c.drives) d.sync_timeout_us = sync_timeout;
   return c;
 }
