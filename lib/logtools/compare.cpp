@@ -107,7 +107,7 @@ void compare_fields(const std::string& channel, const Fields& a, const Fields& b
     note(std::move(d));
   }
   for (const auto& fb : b.items()) {
-    if (!bmap.count(fb.path)) continue;
+    if (!bmap.count(fb.path) || fb.path == "header.publish_utime") continue;
     const double* tol = o.tolerance_for(channel, fb.path);
     if (tol != nullptr && std::isinf(*tol)) continue;
     note({fb.path, "(absent)", value_text(fb), std::numeric_limits<double>::quiet_NaN(), 0});
