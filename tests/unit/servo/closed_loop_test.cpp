@@ -324,6 +324,25 @@ TEST(ClosedLoop, GripperClosingOnNothingIsAFailedGrasp) {
   expect_motion_stopped(loop);
 }
 
+TEST(ClosedLoop, FruitSlippingFromTheGripperIsAFailedGrasp) {
+  WorldSpec spec = experiment_one();
+  spec.fruit_slips = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::FAILED_GRASP);
+  EXPECT_FALSE(loop.world.fruit_picked(1));
+  const auto grips = loop.bus.messages<gripper_command_t>(ch::kGripperCommand);
+  ASSERT_EQ(grips.size(), 2u);  // close on the fruit, open after the slip; never the drop's open
+  EXPECT_EQ(grips.back().second.action, +gripper_command_t::ACTION_OPEN);
+  bool dropped = false;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus)) dropped |= st.state == "DROP";
+  EXPECT_FALSE(dropped) << "went on to the drop pose without the fruit";
+  expect_within_limits(loop);
+  expect_published(loop, 1, fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper");
+  expect_motion_stopped(loop);
+}
+
 // Faults stop the arm at once and latch until RESET_FAULT.
 void expect_fault_stops(Loop& loop, const std::string& detail_prefix) {
   ASSERT_TRUE(loop.run_until_state(State::kFault, 30.0));

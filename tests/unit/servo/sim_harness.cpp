@@ -248,8 +248,14 @@ void WorldDouble::publish_gripper() {
       if (where_[i] == Where::kTree && (spec_.fruits[i].position - arm_.tool().translation()).norm() < 0.03) {
         where_[i] = Where::kGripper;
         gripper_ = gripper_state_t::STATE_HOLDING;
+        holding_since_ = now();
       }
     }
+  }
+  if (spec_.fruit_slips && gripper_ == gripper_state_t::STATE_HOLDING && now() - holding_since_ >= 200 * rt::kMilli) {
+    gripper_ = gripper_state_t::STATE_CLOSED;
+    for (auto& w : where_)
+      if (w == Where::kGripper) w = Where::kFallen;
   }
   gripper_state_t s{};
   s.header.utime = now();

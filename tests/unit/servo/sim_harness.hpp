@@ -90,6 +90,7 @@ struct WorldSpec {
   bool gripper_misses = false;              // closes on nothing
   bool gripper_stuck = false;               // never finishes closing (no HOLDING/CLOSED report)
   bool arm_ignores_goals = false;           // pose goals are acknowledged but never executed
+  bool fruit_slips = false;                 // a held fruit falls out of the gripper 0.2 s after the grasp
   std::optional<double> gripper_fault_after_s;
   std::optional<double> robot_fault_after_s;
   std::optional<double> robot_silent_after_s;
@@ -128,7 +129,7 @@ class WorldDouble final : public rt::Node {
   void on_attach() override;
 
  private:
-  enum class Where { kTree, kGripper, kDropped };
+  enum class Where { kTree, kGripper, kDropped, kFallen };
   void publish_fixed();
   void publish_hand();
   void publish_ir();
@@ -142,6 +143,7 @@ class WorldDouble final : public rt::Node {
   rt::Micros start_ = 0;
   int8_t gripper_ = 1;  // gripper_state_t::STATE_OPEN
   rt::Micros closing_since_ = 0;
+  rt::Micros holding_since_ = 0;
   std::optional<Eigen::Vector3d> close_position_;
 };
 
