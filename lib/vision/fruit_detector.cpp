@@ -72,14 +72,6 @@ void fill_holes(cv::Mat1b& crop) {
   crop |= ~outside;
 }
 
-double segment_distance(cv::Point2d p, cv::Point2d a, cv::Point2d b) {
-  const cv::Point2d ab = b - a;
-  const double len2 = ab.dot(ab);
-  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  const cv::Point2d d = p - (a + t * ab);
-  return std::hypot(d.x, d.y);
-}
-
 // Outline points that are fruit edge: on the convex hull, and on a short
 // hull edge (a leaf's straight border or the image border makes a long one,
 // a leaf biting into the fruit makes a concavity off the hull).
@@ -87,21 +79,38 @@ std::vector<cv::Point2d> fruit_edge_points(const std::vector<cv::Point>& contour
                                            double max_edge_px) {
   std::vector<cv::Point> hull;
   cv::convexHull(contour, hull);
+  struct Edge {
+    double ax, ay, dx, dy, inv_len2;
+  };
+  std::vector<Edge> edges;
+  edges.reserve(hull.size());
+  for (std::size_t i = 0; i < hull.size(); ++i) {
+    const cv::Point a = hull[i], b = hull[(i + 1) % hull.size()];
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    edges.push_back({static_cast<double>(a.x), static_cast<double>(a.y), dx, dy, len2 > 0 ? 1.0 / len2 : 0.0});
+  }
   std::vector<cv::Point2d> edge;
   edge.reserve(contour.size());
   for (const cv::Point& c : contour) {
     const cv::Point q = c + offset;
     if (q.x <= 0 || q.y <= 0 || q.x >= image.width - 1 || q.y >= image.height - 1) continue;
-    double best = 1e18, best_len = 0;
-    for (std::size_t i = 0; i < hull.size(); ++i) {
-      const cv::Point2d a = hull[i], b = hull[(i + 1) % hull.size()];
-      const double d = segment_distance(c, a, b);
-      if (d < best) {
-        best = d;
-        best_len = std::hypot(b.x - a.x, b.y - a.y);
+    // Nearest hull edge by squared point-to-segment distance.
+    double best2 = 1e36;
+    std::size_t best = 0;
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      const Edge& e = edges[i];
+      const double px = c.x - e.ax, py = c.y - e.ay;
+      const double t = std::clamp((px * e.dx + py * e.dy) * e.inv_len2, 0.0, 1.0);
+      const double rx = px - t * e.dx, ry = py - t * e.dy;
+      const double d2 = rx * rx + ry * ry;
+      if (d2 < best2) {
+        best2 = d2;
+        best = i;
       }
     }
-    if (best <= 1.0 && best_len <= max_edge_px) edge.emplace_back(q.x, q.y);
+    if (edges.empty() || best2 > 1.0) continue;
+    const double len = std::sqrt(edges[best].dx * edges[best].dx + edges[best].dy * edges[best].dy);
+    if (len <= max_edge_px) edge.emplace_back(q.x, q.y);
   }
   return edge;
 }

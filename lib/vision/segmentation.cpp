@@ -5,6 +5,10 @@
 #include <cmath>
 #include <cstring>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 namespace harvest::vision {
 
 namespace {
@@ -37,8 +41,9 @@ __attribute__((target_clones("avx2", "default")))
 #endif
 void threshold_row(const uint8_t* __restrict p, uint8_t* __restrict m, int width, const IntThresholds& it) {
   const int32_t lo0 = it.lo[0], lo1 = it.lo[1], lo2 = it.lo[2];
-  const uint32_t w0 = static_cast<uint32_t>(it.hi[0] - lo0), w1 = static_cast<uint32_t>(it.hi[1] - lo1),
-                 w2 = static_cast<uint32_t>(it.hi[2] - lo2);
+  const auto w0 = static_cast<uint32_t>(static_cast<int64_t>(it.hi[0]) - lo0),
+             w1 = static_cast<uint32_t>(static_cast<int64_t>(it.hi[1]) - lo1),
+             w2 = static_cast<uint32_t>(static_cast<int64_t>(it.hi[2]) - lo2);
   for (int x = 0; x < width; ++x) {
     const int32_t b = p[3 * x], g = p[3 * x + 1], r = p[3 * x + 2];
     const int32_t cr = 721 * r - 587 * g - 114 * b;
@@ -49,20 +54,119 @@ void threshold_row(const uint8_t* __restrict p, uint8_t* __restrict m, int width
     m[x] = static_cast<uint8_t>(-static_cast<int8_t>(in));
   }
 }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define HARVEST_HAVE_AVX2_KERNEL 1
+// pshufb control gathering channel `c` (0 B, 1 G, 2 R) of 16 packed BGR pixels
+// from the 16-byte block `part` (0..2) of their 48 bytes; -1 zeroes a byte.
+__m128i gather_mask(int c, int part) {
+  alignas(16) int8_t idx[16];
+  for (int pos = 0; pos < 16; ++pos) {
+    const int byte = 3 * pos + c;
+    idx[pos] = static_cast<int8_t>(byte / 16 == part ? byte % 16 : -1);
+  }
+  return _mm_load_si128(reinterpret_cast<const __m128i*>(idx));
+}
+
+// A 32-bit lane holding the 16-bit pair (lo, hi) for _mm256_madd_epi16.
+constexpr int32_t pair16(int lo, int hi) {
+  return static_cast<int32_t>(static_cast<uint32_t>(static_cast<uint16_t>(lo)) |
+                              (static_cast<uint32_t>(static_cast<uint16_t>(hi)) << 16));
+}
+
+// All-ones lanes where lo <= krg . (R, G) + kb . (B, 0) <= lo + w (unsigned w).
+__attribute__((target("avx2"))) inline __m256i inside(__m256i rg, __m256i b0, __m256i krg, __m256i kb, __m256i lo,
+                                                      __m256i w) {
+  const __m256i d = _mm256_sub_epi32(_mm256_add_epi32(_mm256_madd_epi16(rg, krg), _mm256_madd_epi16(b0, kb)), lo);
+  return _mm256_cmpeq_epi32(_mm256_min_epu32(d, w), d);
+}
+
+// The same test as threshold_row, 16 pixels at a time with AVX2: the three
+// channels are gathered with pshufb, widened to 16 bits and paired, so each
+// colour difference is two pmaddwd (R, G and B, 0 pairs) in exact 32-bit
+// integers; the unsigned range test is min_epu32 + cmpeq.
+__attribute__((target("avx2"))) void threshold_row_avx2(const uint8_t* p, uint8_t* m, int width,
+                                                        const IntThresholds& it) {
+  static const __m128i kB0 = gather_mask(0, 0), kB1 = gather_mask(0, 1), kB2 = gather_mask(0, 2);
+  static const __m128i kG0 = gather_mask(1, 0), kG1 = gather_mask(1, 1), kG2 = gather_mask(1, 2);
+  static const __m128i kR0 = gather_mask(2, 0), kR1 = gather_mask(2, 1), kR2 = gather_mask(2, 2);
+  const __m256i rg_cr = _mm256_set1_epi32(pair16(721, -587)), b_cr = _mm256_set1_epi32(pair16(-114, 0));
+  const __m256i rg_cg = _mm256_set1_epi32(pair16(-299, 413)), b_cg = _mm256_set1_epi32(pair16(-114, 0));
+  const __m256i rg_cb = _mm256_set1_epi32(pair16(-299, -587)), b_cb = _mm256_set1_epi32(pair16(886, 0));
+  const __m256i lo0 = _mm256_set1_epi32(it.lo[0]), lo1 = _mm256_set1_epi32(it.lo[1]), lo2 = _mm256_set1_epi32(it.lo[2]);
+  const __m256i w0 = _mm256_set1_epi32(static_cast<int32_t>(static_cast<int64_t>(it.hi[0]) - it.lo[0])),
+                w1 = _mm256_set1_epi32(static_cast<int32_t>(static_cast<int64_t>(it.hi[1]) - it.lo[1])),
+                w2 = _mm256_set1_epi32(static_cast<int32_t>(static_cast<int64_t>(it.hi[2]) - it.lo[2]));
+  const __m256i zero = _mm256_setzero_si256();
+  int x = 0;
+  for (; x + 16 <= width; x += 16) {
+    const uint8_t* q = p + 3 * x;
+    const __m128i v0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(q));
+    const __m128i v1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(q + 16));
+    const __m128i v2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(q + 32));
+    const __m128i b =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(v0, kB0), _mm_shuffle_epi8(v1, kB1)), _mm_shuffle_epi8(v2, kB2));
+    const __m128i g =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(v0, kG0), _mm_shuffle_epi8(v1, kG1)), _mm_shuffle_epi8(v2, kG2));
+    const __m128i r =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(v0, kR0), _mm_shuffle_epi8(v1, kR1)), _mm_shuffle_epi8(v2, kR2));
+    const __m256i b16 = _mm256_cvtepu8_epi16(b), g16 = _mm256_cvtepu8_epi16(g), r16 = _mm256_cvtepu8_epi16(r);
+    // In-lane interleave: "lo" holds pixels 0-3 and 8-11, "hi" 4-7 and 12-15.
+    const __m256i rg_lo = _mm256_unpacklo_epi16(r16, g16), rg_hi = _mm256_unpackhi_epi16(r16, g16);
+    const __m256i b_lo = _mm256_unpacklo_epi16(b16, zero), b_hi = _mm256_unpackhi_epi16(b16, zero);
+    const __m256i in_lo = _mm256_and_si256(
+        _mm256_and_si256(inside(rg_lo, b_lo, rg_cr, b_cr, lo0, w0), inside(rg_lo, b_lo, rg_cg, b_cg, lo1, w1)),
+        inside(rg_lo, b_lo, rg_cb, b_cb, lo2, w2));
+    const __m256i in_hi = _mm256_and_si256(
+        _mm256_and_si256(inside(rg_hi, b_hi, rg_cr, b_cr, lo0, w0), inside(rg_hi, b_hi, rg_cg, b_cg, lo1, w1)),
+        inside(rg_hi, b_hi, rg_cb, b_cb, lo2, w2));
+    // packs restores pixel order within each lane: lane 0 = 0-7, lane 1 = 8-15.
+    const __m256i in16 = _mm256_packs_epi32(in_lo, in_hi);
+    const __m128i in8 = _mm_packs_epi16(_mm256_castsi256_si128(in16), _mm256_extracti128_si256(in16, 1));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(m + x), in8);
+  }
+  if (x < width) threshold_row(p + 3 * x, m + x, width - x, it);
+}
+
+bool have_avx2() {
+  static const bool yes = __builtin_cpu_supports("avx2");
+  return yes;
+}
+#endif
+
+void threshold_image(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
+                     uint8_t* mask, std::size_t mask_stride, bool allow_simd) {
+  const IntThresholds it = IntThresholds::from(t);
+  // An empty range (lo > hi) must reject everything.
+  const bool empty = it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2];
+#ifdef HARVEST_HAVE_AVX2_KERNEL
+  const bool simd = allow_simd && have_avx2();
+#else
+  const bool simd = false;
+  (void)allow_simd;
+#endif
+  for (int y = 0; y < height; ++y) {
+    uint8_t* m = mask + static_cast<std::size_t>(y) * mask_stride;
+    const uint8_t* p = bgr + static_cast<std::size_t>(y) * stride;
+    if (empty) std::memset(m, 0, static_cast<std::size_t>(width));
+#ifdef HARVEST_HAVE_AVX2_KERNEL
+    else if (simd)
+      threshold_row_avx2(p, m, width, it);
+#endif
+    else
+      threshold_row(p, m, width, it);
+  }
+}
 }  // namespace
 
 void threshold_crcgcb(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
                       uint8_t* mask, std::size_t mask_stride) {
-  const IntThresholds it = IntThresholds::from(t);
-  // An empty range (lo > hi) must reject everything.
-  const bool empty = it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2];
-  for (int y = 0; y < height; ++y) {
-    uint8_t* m = mask + static_cast<std::size_t>(y) * mask_stride;
-    if (empty)
-      std::memset(m, 0, static_cast<std::size_t>(width));
-    else
-      threshold_row(bgr + static_cast<std::size_t>(y) * stride, m, width, it);
-  }
+  threshold_image(bgr, width, height, stride, t, mask, mask_stride, true);
+}
+
+void threshold_crcgcb_portable(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
+                               uint8_t* mask, std::size_t mask_stride) {
+  threshold_image(bgr, width, height, stride, t, mask, mask_stride, false);
 }
 
 cv::Mat1b threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t) {
@@ -169,7 +273,8 @@ const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t m
 
   // Accumulate statistics on roots.
   const auto n = static_cast<int32_t>(runs_.size());
-  std::vector<Region> acc(static_cast<std::size_t>(n));
+  std::vector<Region>& acc = acc_;  // buffers kept across calls: no allocation per frame
+  acc.assign(static_cast<std::size_t>(n), Region{});
   for (int32_t i = 0; i < n; ++i) {
     const int32_t root = find(i);
     parent_[i] = root;
@@ -190,10 +295,12 @@ const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t m
     g.sum_x += 0.5 * static_cast<double>(r.x0 + r.x1 - 1) * static_cast<double>(len);
     g.sum_y += static_cast<double>(r.y) * static_cast<double>(len);
   }
-  std::vector<int32_t> index_of_root(static_cast<std::size_t>(n), -1);
+  std::vector<int32_t>& index_of_root = index_of_root_;
+  index_of_root.assign(static_cast<std::size_t>(n), -1);
   region_first_run_.clear();
   next_run_.assign(static_cast<std::size_t>(n), -1);
-  std::vector<int32_t> last_run;
+  std::vector<int32_t>& last_run = last_run_;
+  last_run.clear();
   for (int32_t i = 0; i < n; ++i) {
     const int32_t root = parent_[i];
     if (root == i && acc[i].area > min_area) {

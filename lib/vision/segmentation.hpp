@@ -38,6 +38,10 @@ struct IntThresholds {
 void threshold_crcgcb(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
                       uint8_t* mask, std::size_t mask_stride);
 cv::Mat1b threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t);
+// The same without the AVX2 kernel (threshold_crcgcb uses it when the CPU has
+// AVX2); for tests comparing the two and for benchmarks.
+void threshold_crcgcb_portable(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
+                               uint8_t* mask, std::size_t mask_stride);
 
 // The thesis colour-difference values of one pixel (for tests and tools).
 struct CrCgCb {
@@ -79,6 +83,8 @@ class RegionLabeler {
   std::vector<Region> regions_;
   std::vector<int32_t> region_first_run_;  // runs of one region are chained through next_run_
   std::vector<int32_t> next_run_;
+  std::vector<Region> acc_;  // scratch of label()
+  std::vector<int32_t> index_of_root_, last_run_;
 };
 
 }  // namespace harvest::vision
