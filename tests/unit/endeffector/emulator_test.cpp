@@ -205,3 +205,21 @@ TEST(EeEmulator, HostCanPushIrValuesAndObserveCommands) {
   EXPECT_EQ(std::get<ee::Close>(seen[0].message).force_mn, 4000);
   EXPECT_TRUE(std::holds_alternative<ee::Ping>(seen[1].message));
 }
+
+TEST(EeTransport, SerialOptionsReadEveryLineSetting) {
+  auto doc = harvest::config::Document::load_string(
+      "port: /dev/ttyUSB3\nbaud: 9600\ndata_bits: 7\nparity: odd\nstop_bits: 2\nflow_control: rtscts\n");
+  const auto o = ee::SerialOptions::from_config(doc.root());
+  EXPECT_EQ(o.port, "/dev/ttyUSB3");
+  EXPECT_EQ(o.baud, 9600);
+  EXPECT_EQ(o.data_bits, 7);
+  EXPECT_EQ(o.parity, "odd");
+  EXPECT_EQ(o.stop_bits, 2);
+  EXPECT_EQ(o.flow_control, "rtscts");
+  EXPECT_NO_THROW(doc.check_unused());
+  for (const char* bad : {"port: /dev/ttyUSB3\nstop_bits: 3\n", "port: /dev/ttyUSB3\nbaud: 10\n",
+                          "port: /dev/ttyUSB3\nflow_control: maybe\n", "port: ''\n", "baud: 9600\n"}) {
+    auto d = harvest::config::Document::load_string(bad);
+    EXPECT_THROW(ee::SerialOptions::from_config(d.root()), harvest::config::Error) << bad;
+  }
+}
