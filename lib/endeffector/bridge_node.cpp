@@ -9,8 +9,8 @@ namespace harvest::endeffector {
 
 namespace {
 constexpr rt::Micros kSupervisePeriod = 10 * rt::kMilli;  // connect polling and watchdog resolution
-constexpr std::size_t kMaxReadPerWakeup = 16 * 1024;        // bounded, so a flooding board cannot starve LCM
-constexpr std::size_t kMaxPendingOut = 4 * 1024;            // a board that takes no commands is a dead link
+constexpr std::size_t kMaxReadPerWakeup = 16 * 1024;      // bounded, so a flooding board cannot starve LCM
+constexpr std::size_t kMaxPendingOut = 4 * 1024;          // a board that takes no commands is a dead link
 
 rt::Micros seconds(const config::Node& n, const std::string& key, double fallback, double lo, double hi) {
   return rt::from_seconds(n.get<double>(key, fallback, {lo, hi}));
@@ -83,7 +83,8 @@ void BridgeNode::on_attach() {
     const bool was = gate_.stopped();
     const auto stop = gate_.on_emergency_stop(msg);
     if (stop && state_ == Link::kUp) send(*stop);
-    if (gate_.stopped() != was) spdlog::warn("emergency stop {}", gate_.stopped() ? "engaged: gripper stopped" : "released");
+    if (gate_.stopped() != was)
+      spdlog::warn("emergency stop {}", gate_.stopped() ? "engaged: gripper stopped" : "released");
   });
   every(kSupervisePeriod, [this] { supervise(); });
   set_health(rt::Health::kStarting, "connecting to " + endpoint_);
@@ -106,6 +107,7 @@ void BridgeNode::connect() {
 void BridgeNode::on_connected() {
   state_ = Link::kUp;
   last_frame_ = now();
+  at_last_frame_ = parser_.counters();
   ctx().watch_fd(link_->fd(), [this] { on_readable(); });
   count("connects");
   spdlog::info("connected to {}", endpoint_);
@@ -125,8 +127,8 @@ void BridgeNode::lose_link(const std::string& reason) {
   const rt::Micros delay = backoff_.next();
   retry_at_ = now() + delay;
   last_reason_ = reason;
-  const std::string msg = "no link to " + endpoint_ + ": " + reason + "; retrying in " +
-                          std::to_string(delay / rt::kMilli) + " ms";
+  const std::string msg =
+      "no link to " + endpoint_ + ": " + reason + "; retrying in " + std::to_string(delay / rt::kMilli) + " ms";
   if (health() != rt::Health::kError || health_message().rfind("no link", 0) != 0) spdlog::error("{}", msg);
   set_health(rt::Health::kError, msg);
   publish_no_data(reason);
@@ -140,8 +142,10 @@ void BridgeNode::supervise() {
       break;
     case Link::kConnecting:
       try {
-        if (link_->poll_open() == LinkState::kOpen) on_connected();
-        else if (t - connect_started_ > cfg_.connect_timeout) lose_link("connect timed out");
+        if (link_->poll_open() == LinkState::kOpen)
+          on_connected();
+        else if (t - connect_started_ > cfg_.connect_timeout)
+          lose_link("connect timed out");
       } catch (const TransportError& e) {
         lose_link(e.what());
       }
@@ -152,9 +156,10 @@ void BridgeNode::supervise() {
       const rt::Micros quiet = t - last_frame_;
       if (quiet > cfg_.reconnect_after_silence) {
         count("silence_reconnects");
-        lose_link("board silent for " + std::to_string(quiet / rt::kMilli) + " ms");
+        lose_link("board silent for " + std::to_string(quiet / rt::kMilli) + " ms" + rejected_since_last_frame());
       } else if (quiet > cfg_.silence_timeout) {
-        const std::string why = "no telemetry from " + endpoint_ + " for " + std::to_string(quiet / rt::kMilli) + " ms";
+        const std::string why = "no telemetry from " + endpoint_ + " for " + std::to_string(quiet / rt::kMilli) +
+                                " ms" + rejected_since_last_frame();
         if (!silent_) {
           silent_ = true;
           count("silences");
@@ -189,6 +194,7 @@ void BridgeNode::on_readable() {
 
 void BridgeNode::on_frame(const Frame& frame) {
   last_frame_ = now();
+  at_last_frame_ = parser_.counters();
   if (silent_) spdlog::info("telemetry from {} is back", endpoint_);
   silent_ = false;
   had_telemetry_ = true;
@@ -207,8 +213,10 @@ void BridgeNode::on_frame(const Frame& frame) {
           fault_code_ = m.code;
           fault_text_ = m.text;
           count("board_faults");
-          if (m.code != 0) spdlog::error("board fault {}: {}", m.code, m.text);
-          else spdlog::info("board faults cleared");
+          if (m.code != 0)
+            spdlog::error("board fault {}: {}", m.code, m.text);
+          else
+            spdlog::info("board faults cleared");
         } else if constexpr (std::is_same_v<T, Pong>) {
           spdlog::info("board on {}: protocol {}, firmware '{}'", endpoint_, m.version, m.firmware);
         } else if constexpr (std::is_same_v<T, Ack>) {
@@ -249,6 +257,19 @@ void BridgeNode::publish_no_data(const std::string& why) {
   publish(cfg_.ir_channel, ir);
   auto st = make_gripper_disconnected(last_position_, why, now());
   publish(cfg_.state_channel, st);
+}
+
+// Input that arrived but was not telemetry: says "wrong baud rate" (garbage) or
+// "other protocol version" instead of a bare "silent".
+std::string BridgeNode::rejected_since_last_frame() const {
+  const ParserCounters& c = parser_.counters();
+  const int64_t garbage = c.garbage_bytes - at_last_frame_.garbage_bytes;
+  const int64_t rejected = c.errors() - at_last_frame_.errors();
+  if (garbage == 0 && rejected == 0) return {};
+  std::string s = " (since then " + std::to_string(garbage) + " bytes outside frames, " + std::to_string(rejected) +
+                  " lines rejected";
+  if (rejected > 0) s += ", last: " + parser_.last_error();
+  return s + ")";
 }
 
 void BridgeNode::sync_parser_counters() {

@@ -19,7 +19,7 @@ namespace harvest::endeffector {
 struct BridgeConfig {
   std::function<std::unique_ptr<ByteStream>()> make_link;
   rt::Micros connect_timeout = 1 * rt::kSecond;
-  rt::Micros silence_timeout = 200 * rt::kMilli;        // no valid frame for this long: NO_DATA
+  rt::Micros silence_timeout = 200 * rt::kMilli;         // no valid frame for this long: NO_DATA
   rt::Micros reconnect_after_silence = 1 * rt::kSecond;  // ... and for this long: drop the link, reconnect
   rt::Micros backoff_initial = 100 * rt::kMilli;
   rt::Micros backoff_max = 2 * rt::kSecond;
@@ -50,6 +50,7 @@ class BridgeNode final : public rt::Node {
   void flush();
   void publish_no_data(const std::string& why);
   void sync_parser_counters();
+  std::string rejected_since_last_frame() const;
 
   BridgeConfig cfg_;
   std::unique_ptr<ByteStream> link_;
@@ -62,6 +63,7 @@ class BridgeNode final : public rt::Node {
   rt::Micros connect_started_ = 0;
   rt::Micros retry_at_ = 0;
   rt::Micros last_frame_ = 0;
+  ParserCounters at_last_frame_;  // parser counters at the last good frame (what came since is rejected input)
   rt::Micros last_no_data_ = 0;
   bool had_telemetry_ = false;  // on this connection
   bool silent_ = false;

@@ -581,6 +581,22 @@ TEST(EeBridgeNode, LineNoiseIsCountedInTheHeartbeatCountersAndDataGoesOn) {
   EXPECT_EQ(f.node->health(), rt::Health::kOk);
 }
 
+TEST(EeBridgeNode, SilenceReportSaysWhatArrivedInsteadOfTelemetry) {
+  Fixture f;
+  f.start();
+  f.run.run_for(100 * kMilli);
+  f.dev.board.set_silent(true);
+  // A board of another protocol version: intact lines, none of them usable.
+  f.dev.to_host += "~~" + ee::encode_raw(2, "1,IR,300") + ee::encode_raw(2, "2,IR,300");
+  f.run.run_for(300 * kMilli);
+  EXPECT_EQ(f.node->health(), rt::Health::kDegraded);
+  EXPECT_NE(
+      f.node->health_message().find("(since then 2 bytes outside frames, 2 lines rejected, last: protocol version 2)"),
+      std::string::npos)
+      << f.node->health_message();
+  EXPECT_EQ(counter(*f.node, "unknown_version"), 2);
+}
+
 TEST(EeBridgeNode, ConnectThatNeverCompletesTimesOut) {
   Fixture f;
   f.dev.hang_connect = true;
