@@ -34,9 +34,11 @@ struct MatcherParams {
   bool mutual = true;  // keep only mutual best matches
   double ransac_threshold_px = 3.0;
   int ransac_iterations = 2000;
-  uint64_t seed = 1;    // RANSAC seed (deterministic replay)
-  int min_inliers = 4;  // below: kTooFew (never less than 4)
-  bool refine = true;   // sub-pixel refinement with Lucas-Kanade
+  uint64_t seed = 1;  // RANSAC seed (deterministic replay)
+  // Below: kTooFew. Four is the minimum for a homography, but any four
+  // matches fit one exactly, so four verify nothing: 8 by default.
+  int min_inliers = 8;
+  bool refine = true;  // sub-pixel refinement with Lucas-Kanade
   LkParams refine_lk{15, 1, 20, 0.01, 1e-3};
   double refine_max_shift_px = 2.0;  // a refined point moving more than this is dropped
 };
