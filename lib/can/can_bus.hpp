@@ -1,6 +1,6 @@
 // CAN transport: classic CAN 2.0 frames over SocketCAN (field) or a virtual
 // bus on UDP multicast that is wire-compatible with python-can's
-// `udp_multicast` interface (tests, simulation). See docs/virtual-can.md.
+// `udp_multicast` interface (tests, simulation). See docs/can.md.
 //
 // A bus is non-blocking: receive() returns nothing when no frame is waiting,
 // and fd() is readable when one is, so a node can watch it with

@@ -1,6 +1,6 @@
 // SocketCAN raw socket (Linux). Error frames are enabled and folded into
 // state(); bus-off recovery is the kernel's (`ip link set can0 type can
-// restart-ms 100`, see docs/robot-link.md): after a restart the controller
+// restart-ms 100`, see docs/can.md): after a restart the controller
 // reports "restarted" and state() returns to active.
 #pragma once
 

@@ -45,7 +45,7 @@ UdpMulticastBus::UdpMulticastBus(UdpMulticastOptions options) : options_(std::mo
     mreq.imr_multiaddr = group;
     mreq.imr_interface.s_addr = htonl(INADDR_ANY);
     if (::setsockopt(rx_fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof(mreq)) < 0)
-      fail(options_, "joining the multicast group (is there a multicast route? see docs/virtual-can.md)");
+      fail(options_, "joining the multicast group (is there a multicast route? see docs/can.md)");
     ::setsockopt(rx_fd_, SOL_SOCKET, SO_TIMESTAMP, &on, sizeof(on));
 
     const unsigned char ttl = static_cast<unsigned char>(options_.hop_limit);

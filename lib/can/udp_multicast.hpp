@@ -1,5 +1,5 @@
 // Virtual CAN bus on IPv4 UDP multicast, wire-compatible with python-can 4.x
-// `udp_multicast` (see python_can_codec.hpp and docs/virtual-can.md).
+// `udp_multicast` (see python_can_codec.hpp and docs/can.md).
 //
 // Every member binds the group's port (SO_REUSEADDR) and receives every
 // datagram. Frames go out through a separate socket connected to the group,

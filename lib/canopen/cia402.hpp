@@ -7,7 +7,7 @@
 
 namespace harvest::canopen {
 
-// Values match robot_state_t.drive_state (docs/robot-link.md).
+// Values match robot_state_t.drive_state (docs/can.md, docs/robot-link.md).
 enum class Cia402State : int8_t {
   kNotReadyToSwitchOn = 0,
   kSwitchOnDisabled = 1,

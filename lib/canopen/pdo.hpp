@@ -1,4 +1,4 @@
-// The arm's default PDO mapping (docs/robot-link.md), and the SDO writes that
+// The arm's default PDO mapping (docs/can.md), and the SDO writes that
 // configure it on a drive at start:
 //   RPDO1 0x200+id: controlword 0x6040 (u16) + target velocity 0x60FF (i32)
 //   TPDO1 0x180+id: statusword 0x6041 (u16) + position actual 0x6064 (i32)

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <cmath>
 #include <functional>
 #include <harvest/emergency_stop_t.hpp>
@@ -61,7 +62,13 @@ class Rig final : public rt::Dispatcher {
   explicit Rig(RobotLinkConfig config, const std::function<void(simdrive::SimDriveSet&)>& before_link = {})
       : rt::Dispatcher(""), model_(config.model) {
     auto& drive_end = wire_.attach();
-    auto drives_doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/drives_k1207i.yaml");
+    // The drives the robot link is configured for, read as harvest-sim-drives reads its drive file.
+    std::string drives_yaml = "drives:\n";
+    for (const auto& d : config.can.drives)
+      drives_yaml += "  - {node_id: " + std::to_string(d.node_id) +
+                     ", counts_per_radian: " + std::to_string(d.counts_per_radian) +
+                     ", zero_offset_counts: " + std::to_string(d.zero_offset_counts) + "}\n";
+    auto drives_doc = config::Document::load_string(drives_yaml);
     auto dc = simdrive::sim_drive_configs(model_, drives_doc.root(), 1.5, 3.0);
     for (std::size_t i = 0; i < dc.size(); ++i) {
       dc[i].initial_position = config.model.home[static_cast<Eigen::Index>(i)];
@@ -220,6 +227,10 @@ TEST(RobotLinkNode, EnablesAllDrivesAndPublishesToolAndCameraPoses) {
   for (std::size_t i = 0; i < rig.drives().size(); ++i)
     EXPECT_NEAR(s.joint_position[i], rig.drives().drive(i).position(), 1e-5);
   EXPECT_EQ(s.header.frame_id, "base");
+  // One state per SYNC period (100 Hz), sample times one period apart.
+  const auto& prev = rig.states()[rig.states().size() - 2];
+  EXPECT_EQ(s.header.utime - prev.header.utime, 10'000);
+  EXPECT_EQ(s.header.seq, prev.header.seq + 1);
   // Poses are the model's FK of the reported joints: TCP 190.5 mm beyond the
   // flange along the flange z axis (the approach axis), camera optical frame.
   const Eigen::VectorXd q = joints(s);
@@ -284,6 +295,29 @@ TEST(RobotLinkNode, TwistMovesTheToolAtTheCommandedVelocity) {
   EXPECT_LT((reported - v).norm(), 0.02 * v.norm()) << reported.transpose();
   EXPECT_EQ(b.fault_flags, 0) << b.fault_text;
   EXPECT_GE(b.last_command_seq, 0);
+}
+
+TEST(RobotLinkNode, SixAxisArmFollowsATwistToo) {
+  RobotLinkConfig c = default_config();
+  c.model = kinematics::ArmModel::load(HARVEST_SOURCE_DIR "/config/arm/six_axis.yaml");
+  c.can.drives.resize(6);
+  // Its home is away from singularities (smallest singular value of J well above the damping threshold).
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kinematics::tool_jacobian(c.model, c.model.home));
+  EXPECT_GT(svd.singularValues().minCoeff(), 0.05);
+  Rig rig(std::move(c));
+  rig.start();
+  ASSERT_EQ(rig.last().num_joints, 6);
+  const Eigen::Vector3d v(0.03, -0.04, 0.02);  // toward the shoulder, away from the stretched-arm singularity
+  const auto cmd = every_20ms(rig, twist_command(v.x(), v.y(), v.z()));
+  rig.run(0.3, cmd);
+  const robot_state_t a = rig.last();
+  rig.run(1.0, cmd);
+  const robot_state_t b = rig.last();
+  EXPECT_EQ(b.mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+  const Eigen::Vector3d measured = measured_velocity(a, b);
+  EXPECT_LT((measured - v).norm(), 0.01 * v.norm())
+      << measured.transpose() << " " << rig.describe_last() << " q " << joints(b).transpose();
+  EXPECT_LT(orientation(b.tool_pose).angularDistance(orientation(a.tool_pose)), 1e-3);
 }
 
 TEST(RobotLinkNode, AngularTwistRotatesTheToolAboutItsCentre) {
