@@ -263,4 +263,17 @@ TEST_F(ArmProcesses, EmergencyStopStopsTheArm) {
   EXPECT_NE(latest()->fault_text.find("red button"), std::string::npos) << latest()->fault_text;
 }
 
+// In the field the bus is socketcan:can0; a missing interface (or, here, a
+// kernel without CAN) ends the process at once with a message naming it.
+TEST(RobotLinkProcess, MissingCanInterfaceIsAClearErrorNamingIt) {
+  ht::TempDir tmp;
+  ht::ChildProcess link({ht::bin("harvest-robot-link"), "--config", ht::source_path("config/arm/robot_link.yaml"),
+                         "--set", "bus=socketcan:nosuchcan3", "--lcm-url", ht::unique_lcm_url(), "--no-netcheck"},
+                        tmp / "robot-link.log");
+  const int rc = link.wait(10s);
+  EXPECT_NE(rc, 0) << link.output();
+  EXPECT_NE(rc, -1) << "still running\n" << link.output();
+  EXPECT_NE(link.output().find("socketcan:nosuchcan3"), std::string::npos) << link.output();
+}
+
 }  // namespace
