@@ -375,6 +375,30 @@ TEST(RobotLinkNode, StaleCommandGivesAControlledStopNotAFault) {
   EXPECT_FALSE(rig.last().command_stale);
 }
 
+TEST(RobotLinkNode, StopCommandStopsAtOnceWithinTheAccelerationLimits) {
+  Rig rig(default_config());
+  rig.start();
+  auto twist = twist_command(0.05, 0.0, 0.05);
+  twist.validity_us = 1'000'000;  // the watchdog alone would take a second
+  rig.run(0.5, every_20ms(rig, twist));
+  ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING);
+  harvest::robot_command_t stop{};
+  stop.type = harvest::robot_command_t::TYPE_STOP;
+  const std::size_t from = rig.states().size();
+  // The STOP is resent like any command; it must not be taken for motion.
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_IDLE; }, 1.0, every_20ms(rig, stop)))
+      << rig.describe_last();
+  EXPECT_LT(rig.states().size() - from, 30u) << "at once, not when the twist expires";
+  EXPECT_LT(rig.max_true_speed(), 1e-9);
+  EXPECT_FALSE(rig.last().command_stale) << "a stop is not a stale command";
+  EXPECT_EQ(rig.last().fault_flags, 0) << rig.last().fault_text;
+  const Eigen::VectorXd amax = rig.model().max_acceleration();
+  for (std::size_t k = from; k < rig.states().size(); ++k)
+    for (int j = 0; j < 7; ++j)
+      EXPECT_LE(std::abs(rig.states()[k].joint_velocity_cmd[j] - rig.states()[k - 1].joint_velocity_cmd[j]),
+                amax[j] * 0.01 * (1 + 1e-9));
+}
+
 // Runs a moving arm into `inject`, then checks: all drives stop, the state
 // shows `flag`, the fault latches (commands ignored) until RESET_FAULT.
 void expect_fault_stop(const std::function<void(Rig&)>& inject, int32_t flag, const std::string& text,
