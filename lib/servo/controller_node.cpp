@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "runtime/channels.hpp"
+#include "servo/tbz_approach.hpp"
 
 namespace harvest::servo {
 
@@ -17,7 +18,8 @@ void ServoControllerNode::on_attach() {
   subscribe<targets_t>(ch::kTargets, [this](const targets_t& m) { emit(machine_.on_targets(m, now())); });
   subscribe<fruit_detections_t>(ch::kFruitHand,
                                 [this](const fruit_detections_t& m) { emit(machine_.on_hand_fruit(m, now())); });
-  subscribe<robot_state_t>(ch::kRobotState, [this](const robot_state_t& m) { emit(machine_.on_robot_state(m, now())); });
+  subscribe<robot_state_t>(ch::kRobotState,
+                           [this](const robot_state_t& m) { emit(machine_.on_robot_state(m, now())); });
   subscribe<ir_range_t>(ch::kIrRange, [this](const ir_range_t& m) { emit(machine_.on_ir(m, now())); });
   subscribe<gripper_state_t>(ch::kGripperState,
                              [this](const gripper_state_t& m) { emit(machine_.on_gripper(m, now())); });
@@ -25,6 +27,9 @@ void ServoControllerNode::on_attach() {
                                 [this](const operator_command_t& m) { emit(machine_.on_operator(m, now())); });
   subscribe<emergency_stop_t>(ch::kEmergencyStop,
                               [this](const emergency_stop_t& m) { emit(machine_.on_estop(m, now())); });
+  // Teach by zooming (approach_mode tbz) steers from the feature tracker's verified correspondences.
+  if (auto* tbz = dynamic_cast<TbzApproach*>(&machine_.approach()))
+    subscribe<feature_matches_t>(ch::kFeatureMatches, [tbz](const feature_matches_t& m) { tbz->on_matches(m); });
   every(rt::from_seconds(cfg_.tick_period_s), [this] { emit(machine_.tick(now())); });
   every(rt::from_seconds(cfg_.status_period_s), [this] { publish_status(); });
   spdlog::info("[{}] approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", name(), cfg_.approach_mode,

@@ -87,6 +87,9 @@ class HarvestMachine {
   harvest_status_t status() const;
   std::string summary() const;
   int64_t workspace_clips() const { return limiter_.workspace_clips(); }
+  // The approach strategy, for the node to feed strategy-specific inputs (FEATURE_MATCHES for tbz).
+  ApproachStrategy& approach() { return *approach_; }
+  std::string approach_name() const { return approach_->name(); }
 
  private:
   struct Fruit {

@@ -1,9 +1,8 @@
 #include "servo/servo_config.hpp"
 
-#include <opencv2/core.hpp>
-
 #include <cmath>
 #include <filesystem>
+#include <opencv2/core.hpp>
 
 namespace harvest::servo {
 
@@ -96,9 +95,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.twist_angle = n.get("twist_angle", c.twist_angle, {-6.3, 6.3});
   c.max_attempts_per_fruit = n.get("max_attempts_per_fruit", c.max_attempts_per_fruit, {1, 10});
   c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
-  c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction"});
-  if (c.ir_approach_speed > c.max_linear_speed)
-    n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
+  c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
+  if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
 
   const config::Node ws = n.child("workspace");
   c.workspace.min = vec3(ws, "min", c.workspace.min);
@@ -123,10 +121,17 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
 
   const config::Node t = n.child("timeouts_s");
   Timeouts& to = c.timeouts;
-  for (auto [key, value] : {std::pair{"select", &to.select}, {"motion", &to.motion}, {"acquire", &to.acquire},
-                            {"lost", &to.lost}, {"reacquire", &to.reacquire}, {"approach", &to.approach},
-                            {"ir_approach", &to.ir_approach}, {"grasp", &to.grasp}, {"release", &to.release},
-                            {"robot_state", &to.robot_state}, {"ir_stale", &to.ir_stale}})
+  for (auto [key, value] : {std::pair{"select", &to.select},
+                            {"motion", &to.motion},
+                            {"acquire", &to.acquire},
+                            {"lost", &to.lost},
+                            {"reacquire", &to.reacquire},
+                            {"approach", &to.approach},
+                            {"ir_approach", &to.ir_approach},
+                            {"grasp", &to.grasp},
+                            {"release", &to.release},
+                            {"robot_state", &to.robot_state},
+                            {"ir_stale", &to.ir_stale}})
     *value = t.get(key, *value, {0.01, 600.0});
 
   c.hand_camera = load_camera_intrinsics(n.file_path("hand_camera_calibration", "config/cameras/hand.yaml").string());

@@ -159,6 +159,7 @@ void expect_motion_stopped(Loop& loop) {
   for (const auto& c : loop.commands_after(rest)) EXPECT_EQ(c.type, +robot_command_t::TYPE_STOP);
   EXPECT_LT((loop.arm.tool().translation() - p0).norm(), 1e-9);
   for (const auto& [time, c] : loop.commands()) EXPECT_EQ(c.validity_us, rt::from_seconds(loop.cfg.validity_s));
+  expect_within_limits(loop);  // failure paths too: never above the limits
 }
 
 // Experiment I: every run (different pixel noise, calibration errors) ends
@@ -287,6 +288,7 @@ TEST(ClosedLoop, FruitBrieflyHiddenIsReacquiredAndPicked) {
   for (const auto& [time, s] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
     reacquired |= s.state == "REACQUIRE";
   EXPECT_TRUE(reacquired);
+  expect_within_limits(loop);
 }
 
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
@@ -359,6 +361,7 @@ void expect_fault_stops(Loop& loop, const std::string& detail_prefix) {
   const Eigen::Vector3d held = loop.arm.tool().translation();
   loop.at(loop.t() + 1.0);
   EXPECT_LT((loop.arm.tool().translation() - held).norm(), 1e-9) << "the arm moved while faulted";
+  expect_within_limits(loop);
   for (const auto& [time, c] : loop.commands()) EXPECT_EQ(c.validity_us, rt::from_seconds(loop.cfg.validity_s));
   const auto after = loop.commands_after(rt::to_seconds(fault_time - kT0));
   ASSERT_GE(after.size(), 40u);
@@ -451,6 +454,7 @@ TEST(ClosedLoop, EmergencyStopHaltsAtOnceAndLatchesUntilCleared) {
   loop.start(loop.t() + 0.001);
   ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
   EXPECT_EQ(loop.ctrl.machine().outcomes().back().outcome, +fruit_outcome_t::PICKED);
+  expect_within_limits(loop);
 }
 
 TEST(ClosedLoop, PauseHoldsStillAndResumeFinishes) {
@@ -499,6 +503,7 @@ TEST(ClosedLoop, MalformedInputIsDroppedAndCounted) {
   EXPECT_EQ(loop.ctrl.stats().decode_errors, 2);
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0));
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  expect_within_limits(loop);
 }
 
 // The states HARVEST_STATUS went through, each change once.
@@ -631,6 +636,23 @@ TEST(ClosedLoop, EmergencyStopWhileIdleLatchesToo) {
   loop.send(loop.t() + 0.1, ch::kEmergencyStop, estop(false, true));
   EXPECT_EQ(loop.ctrl.machine().state(), State::kIdle);
   EXPECT_FALSE(loop.bus.messages<harvest_status_t>(ch::kHarvestStatus).back().second.estop);
+  expect_within_limits(loop);
+}
+
+// approach_mode selects the strategy; tbz makes the node listen to FEATURE_MATCHES.
+TEST(ServoConfig, ApproachModeSelectsTheStrategyAndItsInputs) {
+  for (const std::string mode : {"reconstruction", "tbz"}) {
+    const auto doc = config::Document::load_string("approach_mode: " + mode);
+    const ServoConfig cfg = ServoConfig::from_yaml(doc.root());
+    SimBus bus(kT0);
+    ServoControllerNode ctrl(cfg);
+    bus.add(ctrl);
+    bus.start();
+    EXPECT_EQ(ctrl.machine().approach_name(), mode);
+    EXPECT_EQ(bus.is_subscribed(ch::kFeatureMatches), mode == "tbz") << mode;
+  }
+  const auto bad = config::Document::load_string("approach_mode: bogus");
+  EXPECT_THROW(ServoConfig::from_yaml(bad.root()), config::Error);
 }
 
 // clip_to_workspace over random positions inside and random velocities: the
@@ -742,6 +764,7 @@ TEST(ClosedLoop, ReplayOfARecordedLogGivesIdenticalCommands) {
   std::printf("replayed %zu records (%d stop, %d twist, %d pose goal commands)\n", replayed.size(), stops, twists,
               goals);
   EXPECT_EQ(rt::first_difference(replayed, replay_once("out2.lcmlog")), std::nullopt);
+  expect_within_limits(loop);
 }
 
 }  // namespace
