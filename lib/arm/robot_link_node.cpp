@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "runtime/channels.hpp"
@@ -209,8 +210,17 @@ void RobotLinkNode::supervise() {
   for (const auto& e : master_->take_events()) spdlog::error("drive: {}", e);
   if (master_->phase() == MasterPhase::kFailed) supervisor_.on_fault(master_->error());
   if (master_->any_fault()) {
-    for (const auto& d : master_->drives())
-      if (d.faulted()) supervisor_.on_fault(d.fault_text);
+    // One entry per latched cause (the drive's text accumulates them), so the
+    // supervisor's text lists each cause once.
+    for (const auto& d : master_->drives()) {
+      if (!d.faulted()) continue;
+      std::size_t begin = 0;
+      while (begin <= d.fault_text.size()) {
+        const std::size_t end = std::min(d.fault_text.find("; ", begin), d.fault_text.size());
+        if (end > begin) supervisor_.on_fault(d.fault_text.substr(begin, end - begin));
+        begin = end + 2;
+      }
+    }
   }
   if (bus_->state() == can::BusState::kBusOff) supervisor_.on_fault("CAN bus off");
   const bool enabled = master_->all_in(Cia402State::kOperationEnabled);

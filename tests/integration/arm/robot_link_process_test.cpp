@@ -28,8 +28,8 @@ using namespace std::chrono_literals;
 
 namespace {
 
-constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLost = 1 << 2, kFlagEstop = 1 << 4,
-                  kFlagCommandStale = 1 << 5;
+constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLost = 1 << 2, kFlagPdoLost = 1 << 3,
+                  kFlagEstop = 1 << 4, kFlagCommandStale = 1 << 5;
 
 // A virtual CAN bus of its own for every test (ctest runs tests in parallel):
 // group and port from the pid, ports above the ephemeral range.
@@ -261,6 +261,24 @@ TEST_F(ArmProcesses, EmergencyStopStopsTheArm) {
   e.reason = "red button";
   expect_stop([&] { send(ch::kEmergencyStop, e); }, kFlagEstop, +robot_state_t::MODE_ESTOP);
   EXPECT_NE(latest()->fault_text.find("red button"), std::string::npos) << latest()->fault_text;
+}
+
+// python-can (not our code) decodes the CANopen traffic of the two processes
+// with the standard layouts, then stops drive 4 with its own NMT frame: the
+// robot link sees the drive's PDOs stop and stops the arm.
+TEST_F(ArmProcesses, PythonCanPeerReadsOurCanopenTrafficAndItsNmtStopIsHandled) {
+  const std::string spec = bus_.substr(bus_.find(':') + 1);  // group:port
+  const std::string group = spec.substr(0, spec.find(':')), port = spec.substr(spec.find(':') + 1);
+  const std::size_t from = count();
+  ht::ChildProcess peer(
+      {"/usr/bin/python3", ht::source_path("tests/integration/arm/python_can_canopen_peer.py"), group, port, "7", "4"},
+      tmp_ / "peer.log");
+  ASSERT_EQ(peer.wait(15s), 0) << peer.output() << outputs();
+  ASSERT_TRUE(wait_for(
+      [](const robot_state_t& s) { return (s.fault_flags & kFlagPdoLost) && s.mode == robot_state_t::MODE_FAULT; }, 5s,
+      from))
+      << peer.output() << outputs();
+  EXPECT_NE(latest()->fault_text.find("joint 4 (node 4): no PDO"), std::string::npos) << latest()->fault_text;
 }
 
 // In the field the bus is socketcan:can0; a missing interface (or, here, a

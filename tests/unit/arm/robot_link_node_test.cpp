@@ -461,6 +461,20 @@ TEST(RobotLinkNode, HeartbeatLossStopsTheArm) {
                     [](Rig& r) { r.drives().drive(4).set_heartbeat_enabled(true); });
 }
 
+TEST(RobotLinkNode, EachFaultCauseIsReportedOnce) {
+  Rig rig(default_config());
+  rig.start();
+  rig.drives().drive(3).set_silent(true);  // no PDO, then no heartbeat: two causes, latched one after the other
+  ASSERT_TRUE(rig.run_until([&] { return (rig.last().fault_flags & kFlagHeartbeatLost) != 0; }, 1.0));
+  rig.run(0.2);
+  const std::string& text = rig.last().fault_text;
+  for (const std::string cause : {"joint 4 (node 4): no PDO from the drive", "joint 4 (node 4): heartbeat lost"}) {
+    const auto first = text.find(cause);
+    ASSERT_NE(first, std::string::npos) << text;
+    EXPECT_EQ(text.find(cause, first + 1), std::string::npos) << "twice: " << text;
+  }
+}
+
 TEST(RobotLinkNode, PdoLossStopsTheArm) {
   expect_fault_stop([](Rig& r) { r.drives().drive(0).set_silent(true); }, kFlagPdoLost, "joint 1 (node 1): no PDO",
                     [](Rig& r) { r.drives().drive(0).set_silent(false); });
