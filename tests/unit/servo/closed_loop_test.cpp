@@ -162,6 +162,14 @@ void expect_motion_stopped(Loop& loop) {
   expect_within_limits(loop);  // failure paths too: never above the limits
 }
 
+// The states HARVEST_STATUS went through, each change once.
+std::vector<std::string> published_states(const Loop& loop) {
+  std::vector<std::string> states;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    if (states.empty() || states.back() != st.state) states.push_back(st.state);
+  return states;
+}
+
 // Experiment I: every run (different pixel noise, calibration errors) ends
 // with the fruit inside the gripper and picked.
 TEST(ClosedLoop, ExperimentOneConvergesEveryTime) {
@@ -345,6 +353,36 @@ TEST(ClosedLoop, FruitSlippingFromTheGripperIsAFailedGrasp) {
   expect_motion_stopped(loop);
 }
 
+TEST(ClosedLoop, NoFixedCameraViewEndsTheRunWithoutMotion) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_camera_silent = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0));
+  EXPECT_NEAR(loop.t(), 0.051 + loop.cfg.timeouts.select, 0.05);  // after the select timeout, not before
+  EXPECT_NE(loop.ctrl.machine().summary().find("no view from the fixed camera"), std::string::npos);
+  for (const auto& [time, c] : loop.commands()) EXPECT_EQ(c.type, +robot_command_t::TYPE_STOP);
+  EXPECT_TRUE(loop.ctrl.machine().outcomes().empty());
+  expect_motion_stopped(loop);
+}
+
+TEST(ClosedLoop, ApproachTimeoutGivesTheFruitUpAndRetreats) {
+  WorldSpec spec = experiment_one();
+  ServoConfig cfg = test_config();
+  cfg.timeouts.approach = 0.5;  // far shorter than the approach needs
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::LOST, "approach timed out");
+  const auto states = published_states(loop);
+  const auto approach = std::find(states.begin(), states.end(), "APPROACH");
+  ASSERT_NE(approach, states.end());
+  const std::vector<std::string> expected{"APPROACH", "RETREAT", "RETURN", "SELECT", "DONE"};
+  ASSERT_EQ(std::vector<std::string>(approach, states.end()), expected);
+  EXPECT_FALSE(loop.world.close_position().has_value());
+  expect_motion_stopped(loop);
+}
+
 // Faults stop the arm at once and latch until RESET_FAULT.
 void expect_fault_stops(Loop& loop, const std::string& detail_prefix) {
   ASSERT_TRUE(loop.run_until_state(State::kFault, 30.0));
@@ -504,14 +542,6 @@ TEST(ClosedLoop, MalformedInputIsDroppedAndCounted) {
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0));
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
   expect_within_limits(loop);
-}
-
-// The states HARVEST_STATUS went through, each change once.
-std::vector<std::string> published_states(const Loop& loop) {
-  std::vector<std::string> states;
-  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
-    if (states.empty() || states.back() != st.state) states.push_back(st.state);
-  return states;
 }
 
 // A failed fruit is attempted at most max_attempts_per_fruit times, then given up for good.

@@ -132,6 +132,7 @@ void WorldDouble::on_attach() {
 }
 
 void WorldDouble::publish_fixed() {
+  if (spec_.fixed_camera_silent) return;
   targets_t m{};
   m.header.utime = now();
   m.header.frame_id = "base";

@@ -91,6 +91,7 @@ struct WorldSpec {
   bool gripper_stuck = false;               // never finishes closing (no HOLDING/CLOSED report)
   bool arm_ignores_goals = false;           // pose goals are acknowledged but never executed
   bool fruit_slips = false;                 // a held fruit falls out of the gripper 0.2 s after the grasp
+  bool fixed_camera_silent = false;         // no fixed-camera TARGETS at all
   std::optional<double> gripper_fault_after_s;
   std::optional<double> robot_fault_after_s;
   std::optional<double> robot_silent_after_s;
