@@ -3,6 +3,7 @@
 // desired <-> current matcher. Run: build-*/bench/features_bench
 #include <benchmark/benchmark.h>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/video/tracking.hpp>
 
 #include "features/corners.hpp"
@@ -112,4 +113,13 @@ BENCHMARK(BM_MatchDesiredToCurrent)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecon
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// Ours is single-threaded: compare with OpenCV on one thread too (its
+// worker threads' time would not show in the CPU column).
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
