@@ -442,6 +442,31 @@ TEST(ClosedLoop, SilentRobotTripsTheWatchdog) {
   EXPECT_LE(loop.outcome(1)->cycle_time_s, 2.0 + loop.cfg.timeouts.robot_state + 0.05);
 }
 
+TEST(ClosedLoop, RobotEmergencyStopModeAbortsAndStops) {
+  WorldSpec spec = experiment_one();
+  spec.robot_estop_after_s = 2.0;
+  Loop loop(spec);
+  loop.start();
+  expect_fault_stops(loop, "robot reports emergency stop");
+}
+
+TEST(ClosedLoop, GripperDisconnectAbortsAndStops) {
+  WorldSpec spec = experiment_one();
+  spec.gripper_disconnect_after_s = 1.5;
+  Loop loop(spec);
+  loop.start();
+  expect_fault_stops(loop, "gripper disconnected");
+}
+
+TEST(ClosedLoop, GripperThatNeverOpensAtTheDropIsAFaultAndStops) {
+  WorldSpec spec = experiment_one();
+  spec.gripper_wont_open = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kRelease, 60.0)) << loop.ctrl.machine().summary();
+  expect_fault_stops(loop, "gripper did not report open in time");
+}
+
 TEST(ClosedLoop, UnreachableFruitIsSkipped) {
   WorldSpec spec = experiment_one();
   spec.fixed_error.setZero();

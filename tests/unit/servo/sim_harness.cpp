@@ -67,6 +67,8 @@ void ArmDouble::step() {
   const double dt = 0.01;
   const double t = rt::to_seconds(now() - start_);
   if (spec_.robot_fault_after_s && t >= *spec_.robot_fault_after_s) fault_ = true;
+  const bool estopped = spec_.robot_estop_after_s && t >= *spec_.robot_estop_after_s;
+  if (estopped) fault_ = true;  // a stopped arm either way; reported as MODE_ESTOP below
   if (spec_.robot_silent_after_s && t >= *spec_.robot_silent_after_s) return;
   const bool valid = cmd_ && now() - cmd_rx_ <= cmd_->validity_us && !fault_;
   Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
@@ -87,7 +89,9 @@ void ArmDouble::step() {
   s.header.utime = now();
   s.header.source_seq = -1;
   s.header.frame_id = "base";
-  s.mode = fault_ ? robot_state_t::MODE_FAULT : (valid ? robot_state_t::MODE_MOVING : robot_state_t::MODE_IDLE);
+  s.mode = estopped ? robot_state_t::MODE_ESTOP
+           : fault_ ? robot_state_t::MODE_FAULT
+                    : (valid ? robot_state_t::MODE_MOVING : robot_state_t::MODE_IDLE);
   s.num_joints = 0;
   s.tool_pose = to_pose(tool_);
   s.camera_pose = to_pose(camera());
@@ -118,7 +122,7 @@ void WorldDouble::on_attach() {
       gripper_ = gripper_state_t::STATE_CLOSING;
       closing_since_ = now();
       close_position_ = arm_.tool().translation();
-    } else if (c.action == gripper_command_t::ACTION_OPEN) {
+    } else if (c.action == gripper_command_t::ACTION_OPEN && !spec_.gripper_wont_open) {
       gripper_ = gripper_state_t::STATE_OPEN;
       for (auto& w : where_)
         if (w == Where::kGripper) w = Where::kDropped;
@@ -262,9 +266,10 @@ void WorldDouble::publish_gripper() {
   s.header.utime = now();
   s.header.frame_id = "gripper";
   s.header.source_seq = -1;
-  s.state = faulty ? gripper_state_t::STATE_FAULT : gripper_;
+  const bool gone = spec_.gripper_disconnect_after_s && since_start() >= *spec_.gripper_disconnect_after_s;
+  s.state = gone ? gripper_state_t::STATE_DISCONNECTED : faulty ? gripper_state_t::STATE_FAULT : gripper_;
   s.position = gripper_ == gripper_state_t::STATE_OPEN ? 1.0f : 0.0f;
-  s.connected = true;
+  s.connected = !gone;
   s.fault_code = faulty ? 7 : 0;
   s.fault_text = faulty ? "motor overcurrent" : "";
   publish(ch::kGripperState, s);

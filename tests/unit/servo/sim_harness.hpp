@@ -94,6 +94,9 @@ struct WorldSpec {
   bool fixed_camera_silent = false;         // no fixed-camera TARGETS at all
   std::optional<double> gripper_fault_after_s;
   std::optional<double> robot_fault_after_s;
+  std::optional<double> robot_estop_after_s;         // the robot link reports MODE_ESTOP (and stops)
+  std::optional<double> gripper_disconnect_after_s;  // the end-effector board goes away
+  bool gripper_wont_open = false;                    // an OPEN command is never carried out
   std::optional<double> robot_silent_after_s;
 };
 
