@@ -74,43 +74,39 @@ void fill_holes(cv::Mat1b& crop) {
 
 // Outline points that are fruit edge: on the convex hull, and on a short
 // hull edge (a leaf's straight border or the image border makes a long one,
-// a leaf biting into the fruit makes a concavity off the hull).
+// a leaf biting into the fruit makes a concavity off the hull). The hull
+// vertices are outline points, in outline order, so each outline point is
+// tested against the hull edge spanning it: linear in the outline length.
 std::vector<cv::Point2d> fruit_edge_points(const std::vector<cv::Point>& contour, cv::Point offset, cv::Size image,
                                            double max_edge_px) {
-  std::vector<cv::Point> hull;
-  cv::convexHull(contour, hull);
-  struct Edge {
-    double ax, ay, dx, dy, inv_len2;
-  };
-  std::vector<Edge> edges;
-  edges.reserve(hull.size());
-  for (std::size_t i = 0; i < hull.size(); ++i) {
-    const cv::Point a = hull[i], b = hull[(i + 1) % hull.size()];
-    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    edges.push_back({static_cast<double>(a.x), static_cast<double>(a.y), dx, dy, len2 > 0 ? 1.0 / len2 : 0.0});
-  }
   std::vector<cv::Point2d> edge;
+  const int n = static_cast<int>(contour.size());
+  if (n == 0) return edge;
+  std::vector<int> hull;
+  cv::convexHull(contour, hull, false, false);
+  if (hull.empty()) return edge;
+  std::sort(hull.begin(), hull.end());
+  hull.erase(std::unique(hull.begin(), hull.end()), hull.end());
   edge.reserve(contour.size());
-  for (const cv::Point& c : contour) {
-    const cv::Point q = c + offset;
-    if (q.x <= 0 || q.y <= 0 || q.x >= image.width - 1 || q.y >= image.height - 1) continue;
-    // Nearest hull edge by squared point-to-segment distance.
-    double best2 = 1e36;
-    std::size_t best = 0;
-    for (std::size_t i = 0; i < edges.size(); ++i) {
-      const Edge& e = edges[i];
-      const double px = c.x - e.ax, py = c.y - e.ay;
-      const double t = std::clamp((px * e.dx + py * e.dy) * e.inv_len2, 0.0, 1.0);
-      const double rx = px - t * e.dx, ry = py - t * e.dy;
-      const double d2 = rx * rx + ry * ry;
-      if (d2 < best2) {
-        best2 = d2;
-        best = i;
-      }
+  const std::size_t m = hull.size();
+  for (std::size_t i = 0; i < m; ++i) {
+    const int from = hull[i];
+    const int to = i + 1 < m ? hull[i + 1] : hull[0] + n;  // the last edge wraps around
+    const cv::Point a = contour[static_cast<std::size_t>(from)], b = contour[static_cast<std::size_t>(to % n)];
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    const bool short_edge = std::sqrt(len2) <= max_edge_px;
+    if (!short_edge) continue;
+    const double inv_len2 = len2 > 0 ? 1.0 / len2 : 0.0;
+    const int last = m == 1 ? from + n - 1 : to - 1;  // points from .. to-1 belong to this edge
+    for (int k = from; k <= last; ++k) {
+      const cv::Point c = contour[static_cast<std::size_t>(k % n)];
+      const cv::Point q = c + offset;
+      if (q.x <= 0 || q.y <= 0 || q.x >= image.width - 1 || q.y >= image.height - 1) continue;
+      const double px = c.x - a.x, py = c.y - a.y;
+      const double t = std::clamp((px * dx + py * dy) * inv_len2, 0.0, 1.0);
+      const double rx = px - t * dx, ry = py - t * dy;
+      if (rx * rx + ry * ry <= 1.0) edge.emplace_back(q.x, q.y);
     }
-    if (edges.empty() || best2 > 1.0) continue;
-    const double len = std::sqrt(edges[best].dx * edges[best].dx + edges[best].dy * edges[best].dy);
-    if (len <= max_edge_px) edge.emplace_back(q.x, q.y);
   }
   return edge;
 }
