@@ -83,14 +83,17 @@ TEST(ForwardKinematics, PlanarTwoLinkMatchesHandComputation) {
 TEST(ForwardKinematics, K1207iStraightAndElbowBent) {
   const ArmModel m = k1207i();
   Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
+  // Positions relative to the shoulder (the mounting's translation, from the file).
+  const Eigen::Vector3d shoulder = m.base.translation();
   // All joints at zero: the arm points straight up (-x in the base frame):
   // 0.55 + 0.55 + 0.17 + 0.1905 m.
   Eigen::Isometry3d t = tool_pose(m, q);
-  EXPECT_TRUE(t.translation().isApprox(Eigen::Vector3d(-1.4605, 0, 0), 1e-12)) << t.translation().transpose();
+  EXPECT_TRUE((t.translation() - shoulder).isApprox(Eigen::Vector3d(-1.4605, 0, 0), 1e-12))
+      << t.translation().transpose();
   // Elbow at +90 deg: upper arm up, forearm, wrist and tool toward the tree (+y).
   q[3] = 90 * kDeg;
   t = tool_pose(m, q);
-  EXPECT_NEAR((t.translation() - Eigen::Vector3d(-0.55, 0.55 + 0.17 + 0.1905, 0)).norm(), 0.0, 1e-12)
+  EXPECT_NEAR((t.translation() - shoulder - Eigen::Vector3d(-0.55, 0.55 + 0.17 + 0.1905, 0)).norm(), 0.0, 1e-12)
       << t.translation().transpose();
   EXPECT_NEAR((t.linear().col(2) - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-12);
   // The hand camera sits at the gripper centre, looking along the tool axis.
