@@ -1,6 +1,7 @@
 #include "sim/renderer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -63,6 +64,12 @@ Renderer::PixelBox Renderer::bounds(const Eigen::Vector3f& c, float r) const {
   float ax = std::min((c.x() - r) / z0, (c.x() - r) / z1), bx = std::max((c.x() + r) / z0, (c.x() + r) / z1);
   float ay = std::min((c.y() - r) / z0, (c.y() - r) / z1), by = std::max((c.y() + r) / z0, (c.y() + r) / z1);
   if (bx < nx_min_ || ax > nx_max_ || by < ny_min_ || ay > ny_max_) return none;
+  return normalized_box(ax, bx, ay, by);
+}
+
+Renderer::PixelBox Renderer::normalized_box(float ax, float bx, float ay, float by) const {
+  const PixelBox none{1, 1, 0, 0};
+  if (bx < nx_min_ || ax > nx_max_ || by < ny_min_ || ay > ny_max_) return none;
   // Distortion is only trusted inside the field of view: clamp, then map a
   // 3x3 grid of the normalised box to pixels and pad.
   ax = std::max(ax, nx_min_);
@@ -72,7 +79,8 @@ Renderer::PixelBox Renderer::bounds(const Eigen::Vector3f& c, float r) const {
   double px0 = 1e9, px1 = -1e9, py0 = 1e9, py1 = -1e9;
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) {
-      const Eigen::Vector2d p = model_.normalized_to_pixel(Eigen::Vector2d(ax + (bx - ax) * 0.5 * i, ay + (by - ay) * 0.5 * j));
+      const Eigen::Vector2d p =
+          model_.normalized_to_pixel(Eigen::Vector2d(ax + (bx - ax) * 0.5 * i, ay + (by - ay) * 0.5 * j));
       px0 = std::min(px0, p.x());
       px1 = std::max(px1, p.x());
       py0 = std::min(py0, p.y());
@@ -83,6 +91,35 @@ Renderer::PixelBox Renderer::bounds(const Eigen::Vector3f& c, float r) const {
   return {std::max(0, static_cast<int>(std::floor(px0 - kPad))), std::max(0, static_cast<int>(std::floor(py0 - kPad))),
           std::min(w_ - 1, static_cast<int>(std::ceil(px1 + kPad))),
           std::min(h_ - 1, static_cast<int>(std::ceil(py1 + kPad)))};
+}
+
+Renderer::PixelBox Renderer::leaf_bounds(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const Eigen::Vector3f& v,
+                                         float hl, float hw) const {
+  // The blade lies inside the rectangle c +- hl u +- hw v. Clip that quad to
+  // the near plane (z >= kNear) and project the corners: a convex polygon in
+  // front of the lens projects inside the box of its projected corners. Much
+  // tighter than the bounding sphere, above all for leaves next to the lens.
+  const std::array<Eigen::Vector3f, 4> quad{c + hl * u + hw * v, c - hl * u + hw * v, c - hl * u - hw * v,
+                                            c + hl * u - hw * v};
+  float ax = 1e30f, bx = -1e30f, ay = 1e30f, by = -1e30f;
+  bool any = false;
+  auto add = [&](const Eigen::Vector3f& p) {
+    const float x = p.x() / p.z(), y = p.y() / p.z();
+    ax = std::min(ax, x);
+    bx = std::max(bx, x);
+    ay = std::min(ay, y);
+    by = std::max(by, y);
+    any = true;
+  };
+  for (std::size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector3f& p = quad[k];
+    const Eigen::Vector3f& q = quad[(k + 1) % 4];
+    const bool p_in = p.z() >= kNear, q_in = q.z() >= kNear;
+    if (p_in) add(p);
+    if (p_in != q_in) add(p + (q - p) * ((kNear - p.z()) / (q.z() - p.z())));  // edge crosses the near plane
+  }
+  if (!any) return {1, 1, 0, 0};
+  return normalized_box(ax, bx, ay, by);
 }
 
 void Renderer::put(int i, float depth, const Vec3& rgb, int32_t id) {
@@ -126,7 +163,7 @@ void Renderer::draw_leaf(const Leaf& leaf, const Mat3& rt, const Vec3& t, const 
   const Eigen::Vector3f u = (rt * leaf.u).cast<float>();
   const Eigen::Vector3f v = (rt * leaf.v).cast<float>();
   const float hl = static_cast<float>(leaf.half_length), hw = static_cast<float>(leaf.half_width);
-  const PixelBox b = bounds(c, hl);
+  const PixelBox b = leaf_bounds(c, u, v, hl, hw);
   const float nc = n.dot(c);
   // Both faces of a blade catch light; the lit side is brighter.
   const Vec3 colour = leaf.albedo_rgb * shade(light, std::abs(n.dot(sun)));

@@ -45,6 +45,11 @@ class Renderer {
   };
   // Pixels that may see a sphere of radius r at camera-frame centre c.
   PixelBox bounds(const Eigen::Vector3f& c, float r) const;
+  // Pixels that may see a leaf blade (centre c, midrib u, across v, half sizes).
+  PixelBox leaf_bounds(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const Eigen::Vector3f& v, float hl,
+                       float hw) const;
+  // Pixels covering the normalised-coordinate box [ax, bx] x [ay, by].
+  PixelBox normalized_box(float ax, float bx, float ay, float by) const;
   void put(int i, float depth, const Vec3& rgb, int32_t id);
   void draw_sphere(const Eigen::Vector3f& c, float r, const Vec3& albedo, int32_t id, const Eigen::Vector3f& sun,
                    const Lighting& light);
