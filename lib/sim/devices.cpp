@@ -1,9 +1,12 @@
 #include "sim/devices.hpp"
 
+#include <array>
+#include <optional>
 #include <stdexcept>
 
 #include "kinematics/chain.hpp"
 #include "kinematics/diff_ik.hpp"
+#include "sim/scene.hpp"
 #include "simdrive/sim_drives_node.hpp"
 
 namespace harvest::sim {
@@ -54,12 +57,22 @@ StartConfiguration start_joints(const kinematics::ArmModel& model, const Eigen::
   };
   if (auto q = solve(start.rotation)) return {*q, 0.0};
   // The exact orientation is out of the wrist's range: keep the position and
-  // turn the tool toward its orientation at the model's home (a comfortable
-  // one) only as far as needed, by bisection on the rotation between them.
+  // turn the tool toward a comfortable orientation (the model's home one, or
+  // looking at the tree, down, up or sideways) only as far as needed, by
+  // bisection on the rotation between them.
   const Eigen::Quaterniond want(start.rotation);
-  const Eigen::Quaterniond home((mounting * kinematics::tool_pose(model, model.home)).linear());
-  auto blended = [&](double f) { return Mat3(want.slerp(f, home).toRotationMatrix()); };
-  auto q = solve(blended(1.0));
+  std::vector<Mat3> comfortable{(mounting * kinematics::tool_pose(model, model.home)).linear()};
+  const std::array<Vec3, 5> directions{Vec3(0, 1, 0), Vec3(1, 0, 0), Vec3(-1, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, -1)};
+  for (const Vec3& d : directions) comfortable.push_back(look_at_rotation(start.position, start.position + d));
+  Eigen::Quaterniond easy = want;
+  std::optional<Eigen::VectorXd> q;
+  for (const Mat3& r : comfortable) {
+    if ((q = solve(r))) {
+      easy = Eigen::Quaterniond(r);
+      break;
+    }
+  }
+  auto blended = [&](double f) { return Mat3(want.slerp(f, easy).toRotationMatrix()); };
   if (!q) {
     const Vec3 p = start.position * 1e3;
     throw std::runtime_error("the arm '" + model.name + "' cannot reach the scenario's start position (" +
@@ -76,7 +89,7 @@ StartConfiguration start_joints(const kinematics::ArmModel& model, const Eigen::
       lo = mid;
     }
   }
-  return {*q, want.angularDistance(want.slerp(hi, home))};
+  return {*q, want.angularDistance(want.slerp(hi, easy))};
 }
 
 std::vector<simdrive::SimDriveConfig> DeviceArm::with_start(std::vector<simdrive::SimDriveConfig> d,
