@@ -128,17 +128,20 @@ TEST(ReplayRegression, TwoReplaysOfTheSameLogAreByteIdentical) {
 }
 
 TEST(ReplayRegression, StockLcmLoggerLogReplays) {
-  // Recorded live by lcm-logger (tools/harvest refresh-logs keeps it as it
-  // was recorded). Live processes may drop frames under load, so header.seq
-  // and unpaired messages are not compared; every detection that was
-  // published live must come out the same in replay.
+  // Recorded live by the stock lcm-logger and kept as recorded. Live, a
+  // process may drop input under load (header.seq then differs and outputs
+  // lack a partner), and the reconstructor may see a robot state before or
+  // after a detection that replay delivers in log order, which moves a hand
+  // target by millimetres; so unpaired messages and seq are not compared and
+  // targets get 5 cm. Every detection must come out exactly as published live.
   ht::TempDir dir;
-  auto r = replay(dir, "logs/exp1-lcm-logger.lcmlog", kVisionNodes, "out.lcmlog",
-                  {"--compare", "--allow-unmatched", "--ignore", "*.header.seq", "--ignore", "TARGETS.header"});
-  ASSERT_TRUE(r.code == 0 || r.code == 1) << r.output;
+  auto r =
+      replay(dir, "logs/exp1-lcm-logger.lcmlog", kVisionNodes, "out.lcmlog",
+             {"--compare", "--allow-unmatched", "--ignore", "*.header.seq", "--tolerance", "TARGETS.targets[]=0.05"});
+  EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_FIXED"), 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_HAND"), 0) << r.output;
-  EXPECT_NE(r.output.find("TARGETS"), std::string::npos) << r.output;
+  EXPECT_GT(paired(r.output, "SAME", "TARGETS"), 0) << r.output;
 }
 
 TEST(ReplayRegression, BadNodeOrOverrideIsRefusedBeforeReplaying) {
