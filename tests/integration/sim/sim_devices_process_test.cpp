@@ -84,12 +84,16 @@ ir: {noise_std: 1.0}
 
 class SimDevices : public ::testing::Test {
  protected:
+  // Scenario text and whether SetUp waits for the robot to be ready.
+  virtual std::string scenario() const { return kScenario; }
+  virtual bool wait_ready() const { return true; }
+
   void SetUp() override {
     url_ = ht::unique_lcm_url();
     bus_ = unique_can_bus();
     port_ = free_tcp_port();
     ASSERT_GT(port_, 0);
-    { std::ofstream(tmp_ / "scenario.yaml") << kScenario; }
+    { std::ofstream(tmp_ / "scenario.yaml") << scenario(); }
     lcm_ = std::make_unique<lcm::LCM>(url_);
     ASSERT_TRUE(lcm_->good());
     lcm_->subscribe(ch::kRobotState, &SimDevices::on_state, this);
@@ -123,6 +127,7 @@ class SimDevices : public ::testing::Test {
       bridge.push_back("ir_calibration_file=\"\"");
     }
     bridge_.emplace(args(bridge), tmp_ / "ee-bridge.log");
+    if (!wait_ready()) return;
     ASSERT_TRUE(ht::eventually(
         [&] {
           const auto s = latest(states_);
@@ -329,6 +334,40 @@ TEST_F(SimDevices, TwistMovesTheSimulatedToolIrFollowsTheSceneAndTheGripperClose
   ASSERT_EQ(closed.num_fruits, 1);
   EXPECT_EQ(closed.fruits[0].state, 0) << "still on the tree";
   EXPECT_EQ(closed.fruits[0].grasp_attempts, 0);
+}
+
+// Faults from the scenario: a drive and the board fall silent a few seconds
+// into the run; the field processes notice it as they would on the robot.
+class SimDeviceFaults : public SimDevices {
+ protected:
+  std::string scenario() const override {
+    return std::string(kScenario) +
+           "faults: {drive_fault_joint: 3, drive_silent_start_s: 8, board_silent_start_s: 8}\n";
+  }
+  bool wait_ready() const override { return false; }
+};
+
+TEST_F(SimDeviceFaults, SilentDriveAndBoardFromTheScenarioAreSeenByRobotLinkAndBridge) {
+  constexpr int32_t kFlagHeartbeatLost = 1 << 2, kFlagPdoLost = 1 << 3;
+  ASSERT_TRUE(wait_for<robot_state_t>(
+      states_,
+      [](const robot_state_t& s) {
+        return s.mode == robot_state_t::MODE_FAULT && (s.fault_flags & (kFlagHeartbeatLost | kFlagPdoLost)) &&
+               s.fault_text.find("joint 3") != std::string::npos;
+      },
+      30s))
+      << (latest(states_) ? latest(states_)->fault_text : "no robot state") << "\n"
+      << outputs();
+  ASSERT_TRUE(wait_for<ir_range_t>(
+      irs_, [](const ir_range_t& m) { return m.validity == ir_range_t::NO_DATA; }, 30s))
+      << outputs();
+  ASSERT_TRUE(wait_for<gripper_state_t>(
+      grippers_, [](const gripper_state_t& g) { return !g.connected; }, 30s))
+      << outputs();
+  // Before the faults the board was talking: there were real readings.
+  EXPECT_TRUE(wait_for<ir_range_t>(
+      irs_, [](const ir_range_t& m) { return m.validity == ir_range_t::VALID && m.raw > 0; }, 1s));
+  EXPECT_NE(sim_->output().find("fault injection: joint 3 drive silent"), std::string::npos) << outputs();
 }
 
 }  // namespace
