@@ -86,7 +86,7 @@ TEST(ReplayRegression, HarvestReferenceLogReplaysAsRecordedWithTheServoControlle
 TEST(ReplayRegression, AChangedDetectorThresholdIsADiff) {
   ht::TempDir dir;
   auto r = replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "out.lcmlog",
-                  {"--compare", "--set", "fruit-detector/detector-fixed:detector.fruit_diameter_m=0.09"});
+                  {"--compare", "--set", "fruit-detector/detector-fixed:detector.cr_min=40"});
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_GT(paired(r.output, "DIFF", "FRUIT_FIXED"), 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_HAND"), 0) << r.output;  // the other detector is unchanged
