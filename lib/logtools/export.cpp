@@ -42,8 +42,11 @@ std::string json_value(const Field& f) {
     case FieldKind::kDouble:
       return std::isfinite(f.d) ? value_text(f) : "null";
     case FieldKind::kString:
-    case FieldKind::kBytes:
-      return "\"" + json_escape(value_text(f)) + "\"";
+    case FieldKind::kBytes: {
+      std::string quoted(1, '"');
+      quoted.append(json_escape(value_text(f))).push_back('"');
+      return quoted;
+    }
   }
   return "null";
 }
