@@ -101,8 +101,14 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
     SetRewrite rw;
     rw.set_file = o.set_file;
     rw.bin_dir = o.bin_dir;
-    rw.sim_extra_args = {"--set", "scenario=" + fs::absolute(o.scenario).string(), "--set",
-                         "run=" + std::to_string(run)};
+    for (const auto& [name, assignment] : o.process_sets) {
+      rw.extra_args[name].push_back("--set");
+      rw.extra_args[name].push_back(assignment);
+    }
+    for (const std::string& a : {"scenario=" + o.scenario.string(), "run=" + std::to_string(run)}) {
+      rw.extra_args["sim"].push_back("--set");
+      rw.extra_args["sim"].push_back(a);
+    }
     std::ofstream f(set_copy);
     f << "# Written by harvest-demo from " << o.set_file.string() << " for " << prefix << "\n" << rewrite_set(rw);
   }
@@ -230,6 +236,14 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: a private port on this host, TTL 0)");
   app.add_option("--bin-dir", bin, "where the harvest-* executables are (default: beside harvest-demo)");
   app.add_flag("--headless", o.headless, "for CI: plain lines only");
+  std::vector<std::string> process_sets;
+  app.add_option("--process-set", process_sets, "NAME:KEY=VALUE, a configuration override for one process of the set")
+      ->check([](const std::string& v) {
+        const auto colon = v.find(':');
+        return colon == std::string::npos || colon == 0 || v.find('=', colon) == std::string::npos
+                   ? std::string("expected NAME:KEY=VALUE")
+                   : std::string();
+      });
   bool no_plots = false;
   app.add_flag("--no-plots", no_plots, "skip the plots");
   try {
@@ -239,6 +253,7 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
     return false;
   }
   o.plots = !no_plots;
+  for (const auto& v : process_sets) o.process_sets.emplace_back(v.substr(0, v.find(':')), v.substr(v.find(':') + 1));
   // Relative paths: from the current folder if they exist there, else from the repository root.
   auto from_root = [&](const std::string& p) {
     if (fs::path(p).is_absolute()) return fs::path(p);
@@ -282,7 +297,13 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
   std::vector<RunResult> results;
   int code = 0;
   for (int run = 0; run < o.runs && !g_signal; ++run) {
-    RunResult r = run_once(o, scenario, run, lcm, out, err);
+    RunResult r;
+    try {
+      r = run_once(o, scenario, run, lcm, out, err);
+    } catch (const std::exception& ex) {  // the set cannot be written or started
+      err << "harvest-demo: " << ex.what() << '\n';
+      return 2;
+    }
     if (!r.problem.empty()) code = 1;
     if (!r.log.empty()) {
       try {

@@ -25,6 +25,8 @@ struct DemoOptions {
   std::string lcm_url;                 // default: a private multicast port on this host
   bool headless = false;               // no terminal control codes; launcher output only to the log
   bool plots = true;
+  // --process-set NAME:KEY=VALUE: `--set KEY=VALUE` appended to process NAME.
+  std::vector<std::pair<std::string, std::string>> process_sets;
   double start_timeout_s = 30.0;  // processes up and START obeyed within this
   double run_margin_s = 60.0;     // beyond the scenario's time limit before a run is abandoned
 };

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <set>
 #include <stdexcept>
 
 namespace harvest::demo {
@@ -24,19 +25,21 @@ std::string rewrite_set(const SetRewrite& r) {
     root["bin_dir"] = absolute(root["bin_dir"].as<std::string>());
   if (root["recording"] && root["recording"]["folder"])
     root["recording"]["folder"] = absolute(root["recording"]["folder"].as<std::string>());
-  bool found = false;
   YAML::Node processes = root["processes"];
   if (!processes.IsSequence()) throw std::runtime_error(r.set_file.string() + ": processes: expected a list");
+  std::set<std::string> found;
   for (std::size_t i = 0; i < processes.size(); ++i) {
     YAML::Node p = processes[i];
     p["cwd"] = absolute(p["cwd"] ? p["cwd"].as<std::string>() : "../..");
-    if (p["name"] && p["name"].as<std::string>() == r.sim_process) {
-      found = true;
-      if (!p["args"]) p["args"] = YAML::Node(YAML::NodeType::Sequence);
-      for (const auto& a : r.sim_extra_args) p["args"].push_back(a);
-    }
+    const std::string name = p["name"] ? p["name"].as<std::string>() : "";
+    const auto extra = r.extra_args.find(name);
+    if (extra == r.extra_args.end()) continue;
+    found.insert(name);
+    if (!p["args"]) p["args"] = YAML::Node(YAML::NodeType::Sequence);
+    for (const auto& a : extra->second) p["args"].push_back(a);
   }
-  if (!found) throw std::runtime_error(r.set_file.string() + ": no process named '" + r.sim_process + "'");
+  for (const auto& [name, args] : r.extra_args)
+    if (!found.count(name)) throw std::runtime_error(r.set_file.string() + ": no process named '" + name + "'");
   YAML::Emitter out;
   out << root;
   return std::string(out.c_str()) + "\n";

@@ -2,6 +2,7 @@
 // the simulator and the real process set through harvest-launch over real LCM,
 // starts the harvest, and scores the recorded log against the ground truth.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -65,6 +66,32 @@ TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
     EXPECT_TRUE(channels.count(c)) << "no " << c << " in " << log;
 }
 
+// The field-faithful set: the simulator plays only the hardware; the robot
+// link drives the arm's CiA 402 drives over the virtual CAN bus and the
+// end-effector bridge talks to the board over TCP. Private bus and port so
+// parallel tests do not meet.
+TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
+  ht::TempDir dir;
+  const int salt = static_cast<int>(::getpid() % 2000);
+  const std::string bus =
+      "udp_multicast:239.74.163." + std::to_string(10 + salt % 200) + ":" + std::to_string(45000 + salt);
+  const std::string port = std::to_string(21000 + salt);
+  std::string out;
+  ASSERT_EQ(
+      run_demo({"--set", "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml", "--process-set",
+                "sim:devices.bus=" + bus, "--process-set", "robot-link:bus=" + bus, "--process-set",
+                "sim:devices.board.port=" + port, "--process-set", "ee-bridge:link.tcp.port=" + port},
+               dir.path(), &out),
+      0)
+      << out;
+  const std::string summary = slurp(dir / "summary.json");
+  EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary << out;
+  // ROBOT_STATE came from the robot link, IR_RANGE from the bridge.
+  const std::string launch_log = slurp(dir / "out" / "run0-launch.log");
+  EXPECT_NE(launch_log.find("started robot-link"), std::string::npos) << launch_log;
+  EXPECT_NE(launch_log.find("started ee-bridge"), std::string::npos) << launch_log;
+}
+
 TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
   ht::TempDir dir;
   std::string out;
@@ -78,12 +105,12 @@ TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
 TEST(Demo, SetRewriteKeepsTheSetAndTellsTheSimulatorItsRun) {
   harvest::demo::SetRewrite rw;
   rw.set_file = ht::source_path("config/sets/sim-direct.yaml");
-  rw.sim_extra_args = {"--set", "run=3"};
+  rw.extra_args["sim"] = {"--set", "run=3"};
   const std::string text = harvest::demo::rewrite_set(rw);
   EXPECT_NE(text.find("run=3"), std::string::npos) << text;
   EXPECT_NE(text.find("harvest-servo-controller"), std::string::npos) << text;
   EXPECT_NE(text.find("cwd: " + fs::canonical(ht::source_path(".")).string()), std::string::npos) << text;
-  rw.sim_process = "nosuch";
+  rw.extra_args["nosuch"] = {"--set", "a=1"};
   EXPECT_THROW(harvest::demo::rewrite_set(rw), std::runtime_error);
 }
 
