@@ -30,7 +30,9 @@ int log_main(int argc, char** argv) {
   exp->add_option("log", log_path, "LCM log file")->required();
   exp->add_option("channel", channel, "channel name")->required();
   exp->add_option("--format", format, "csv or jsonl")->check(CLI::IsMember({"csv", "jsonl"}))->capture_default_str();
-  exp->add_option("--fields", fields, "keep only these field paths (prefixes, indices as [])")->delimiter(',');
+  exp->add_option("--fields", fields, "keep only these field paths (prefixes, indices as [])")
+      ->delimiter(',')
+      ->allow_extra_args(false);
   exp->add_option("-o,--output", out_file, "output file (default: stdout)");
 
   auto* frm = app.add_subcommand("frames", "camera frames as PNG with the detections drawn on them");

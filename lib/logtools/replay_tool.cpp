@@ -220,13 +220,15 @@ int replay_main(int argc, char** argv) {
   std::vector<std::string> tolerances, ignores;
   bool list = false;
   app.add_option("log", o.input_log, "input LCM log");
-  app.add_option("--node", o.nodes, "[LABEL=]PROCESS[:CONFIG] (repeatable, see --list-nodes)");
-  app.add_option("--set", o.overrides, "[LABEL:]key=value configuration override (repeatable)");
+  app.add_option("--node", o.nodes, "[LABEL=]PROCESS[:CONFIG] (repeatable, see --list-nodes)")->allow_extra_args(false);
+  app.add_option("--set", o.overrides, "[LABEL:]key=value configuration override (repeatable)")
+      ->allow_extra_args(false);
   app.add_option("--out", o.output_log, "output log of the regenerated messages");
   app.add_option("--prefix", o.prefix, "channel prefix of the recorded graph");
   app.add_flag("--compare", o.compare, "compare regenerated channels with the recorded ones; exit 1 on differences");
-  app.add_option("--tolerance", tolerances, "CHANNEL.field=abs (indices as [], '*' for any channel)");
-  app.add_option("--ignore", ignores, "CHANNEL.field not compared (e.g. '*.header.seq')");
+  app.add_option("--tolerance", tolerances, "CHANNEL.field=abs (indices as [], '*' for any channel)")
+      ->allow_extra_args(false);
+  app.add_option("--ignore", ignores, "CHANNEL.field not compared (e.g. '*.header.seq')")->allow_extra_args(false);
   app.add_flag("--allow-unmatched", o.compare_options.allow_unmatched,
                "messages only recorded or only replayed (e.g. dropped live) are listed but do not fail");
   app.add_option("--max-messages", o.compare_options.max_messages_per_channel, "differing messages shown per channel")
