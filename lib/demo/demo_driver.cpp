@@ -131,7 +131,7 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
   const launch::Spawned child = launch::spawn(argv, {}, o.root);
   launch::LineBuffer lines;
   auto on_line = [&](const std::string& line) {
-    launch_log << line << '\n';
+    launch_log << line << std::endl;  // readable while the run goes on
     // The launcher's own lines (starts, exits, restarts) and every error reach the terminal.
     if (line.rfind("[launch]", 0) == 0 || line.find(" error ") != std::string::npos ||
         line.find("critical") != std::string::npos)
@@ -145,7 +145,8 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
 
   const auto t0 = std::chrono::steady_clock::now();
   const double deadline_s = scenario.time_limit_s + o.run_margin_s;
-  double last_start_sent = -10.0, stop_sent_at = -1.0;
+  double last_start_sent = -10.0, stop_sent_at = -1.0, final_since = -1.0;
+  bool stopped_by_us = false;  // the run ended because the controller finished
   bool exited = false;
   int status = 0;
   while (!exited) {
@@ -167,6 +168,20 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
           std::get<operator_command_t>(servo::make_operator_message("start", "harvest-demo", "", rt::wall_time_now()));
       lcm.publish(ch::kOperatorCommand, &msg);
       last_start_sent = t;
+    }
+    // A controller that is DONE or in FAULT ends the run (the simulator would
+    // otherwise wait for its time limit); give the last events time to arrive.
+    const bool final_state = progress.state() == "DONE" || progress.state() == "FAULT";
+    if (!final_state)
+      final_since = -1.0;
+    else if (final_since < 0)
+      final_since = t;
+    if (final_since >= 0 && t - final_since > 5.0 && stop_sent_at < 0) {
+      if (progress.state() == "FAULT") r.problem = "the controller is in FAULT (see " + prefix + "-launch.log)";
+      out << "run " << run << ": controller " << progress.state() << ", stopping the set" << std::endl;
+      launch::signal_group(child.pid, SIGINT);
+      stop_sent_at = t;
+      stopped_by_us = true;
     }
     std::string why;
     if (g_signal)
@@ -194,7 +209,7 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
   lcm.unsubscribe(s2);
   r.launcher_exit = launch::exit_code_of(status);
   r.started = progress.started();
-  if (r.problem.empty() && r.launcher_exit != 0)
+  if (r.problem.empty() && r.launcher_exit != 0 && !stopped_by_us)
     r.problem =
         "harvest-launch exited with code " + std::to_string(r.launcher_exit) + " (see " + prefix + "-launch.log)";
   if (auto log = find_log(o.out_dir, prefix))
@@ -330,8 +345,9 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
   const fs::path plot_tool = o.root / "tools" / "plot_log.py";
   if (o.plots && fs::exists(plot_tool) && !results.empty() && !results.back().log.empty()) {
     const std::string cmd = "/usr/bin/python3 '" + plot_tool.string() + "' '" + results.back().log.string() +
-                            "' --out '" + (o.out_dir / "plots").string() + "' >> '" +
-                            (o.out_dir / "plots.log").string() + "' 2>&1";
+                            "' --out '" + (o.out_dir / "plots").string() + "' --harvest-log '" +
+                            (o.bin_dir / "harvest-log").string() + "' >> '" + (o.out_dir / "plots.log").string() +
+                            "' 2>&1";
     if (std::system(cmd.c_str()) != 0)
       err << "harvest-demo: plotting failed, see " << (o.out_dir / "plots.log") << '\n';
   }

@@ -8,8 +8,10 @@ std::optional<std::string> Progress::on_status(const harvest_status_t& s, double
   state_ = s.state;
   if (s.state != "IDLE") started_ = true;
   char key[256];
-  std::snprintf(key, sizeof key, "%s|%d|%d|%d|%d|%d|%d|%d|%d", s.state.c_str(), s.current_fruit_id, s.picked, s.lost,
-                s.unreachable, s.failed_grasp, s.remaining, s.paused, s.estop);
+  // `remaining` is not part of it: it follows the fixed camera's detections,
+  // which flicker while nothing else changes.
+  std::snprintf(key, sizeof key, "%s|%d|%d|%d|%d|%d|%d|%d", s.state.c_str(), s.current_fruit_id, s.picked, s.lost,
+                s.unreachable, s.failed_grasp, s.paused, s.estop);
   if (last_ && *last_ == key) return std::nullopt;
   last_ = key;
   char line[512];
