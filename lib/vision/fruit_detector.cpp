@@ -127,6 +127,25 @@ double angular_coverage(const std::vector<cv::Point2d>& points, std::size_t outl
 
 }  // namespace
 
+bool FruitDetector::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(crop.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (contours.size() != 1) return false;
+  const auto& contour = contours.front();
+  const double area = cv::countNonZero(crop);
+  const double r_area = std::sqrt(area / std::numbers::pi);
+  const auto edge = fruit_edge_points(contour, offset, image, 3.0 * std::sqrt(r_area) + 2.0);
+  if (edge.size() < 8) return false;
+  const auto c = fit_circle(edge);
+  if (!c || c->r <= 0) return false;
+  // A leaf across a fruit leaves pieces whose outer outline is one circle;
+  // two touching fruit leave two arcs no single circle fits, and a region
+  // larger than the fitted disc is more than one fruit.
+  const double coverage = angular_coverage(edge, contour.size(), c->cx, c->cy);
+  const double disc_area = std::numbers::pi * (c->r + 0.5) * (c->r + 0.5);
+  return coverage >= 0.5 && c->rms <= std::max(0.75, 0.06 * c->r) && area <= 1.05 * disc_area;
+}
+
 FruitDetector::FruitDetector(const DetectorConfig& config, double fx, double fy) : config_(config), fx_(fx), fy_(fy) {
   if (config_.open_radius_px > 0) open_kernel_ = disc_kernel(config_.open_radius_px);
   if (config_.close_radius_px > 0) close_kernel_ = disc_kernel(config_.close_radius_px);
@@ -256,7 +275,10 @@ Detections FruitDetector::detect(const cv::Mat3b& bgr) {
     cv::Mat1b crop = labeler_.region_mask(i, 1);
     const cv::Point offset(regions[i].x0 - 1, regions[i].y0 - 1);
     if (config_.fill_holes) fill_holes(crop);
-    if (config_.split_touching) {
+    // A region one circle explains is one fruit (possibly cut by a leaf):
+    // splitting it at its distance-transform ridge would make fragments whose
+    // small diameters put them far too deep.
+    if (config_.split_touching && !(config_.circle_fit && is_one_fruit(crop, offset, bgr.size()))) {
       for (const auto& [piece, at] : split(crop, offset)) analyse(piece, at, bgr.size(), out.fruits);
     } else {
       analyse(crop, offset, bgr.size(), out.fruits);

@@ -90,6 +90,8 @@ class FruitDetector {
  private:
   void analyse(const cv::Mat1b& piece, cv::Point offset, cv::Size image, std::vector<Fruit>& out) const;
   std::vector<std::pair<cv::Mat1b, cv::Point>> split(const cv::Mat1b& crop, cv::Point offset) const;
+  // The region's visible outline fits one circle that covers it (a fruit, perhaps cut by a leaf).
+  bool is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const;
 
   DetectorConfig config_;
   double fx_, fy_;

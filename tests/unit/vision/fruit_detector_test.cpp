@@ -312,6 +312,26 @@ TEST(FruitDetector, OneFruitIsNotSplit) {
   EXPECT_EQ(det.detect(img).fruits.size(), 1u);
 }
 
+TEST(FruitDetector, LeafAcrossOneFruitDoesNotSplitIt) {
+  // A leaf across the lower half (as in the full-tree scenario) leaves a disc
+  // and a crescent joined at one side; the distance-transform ridge of the
+  // crescent has several peaks, which used to split it into small fragments
+  // whose small diameters put them 2-3 times too deep.
+  const double r = 40, cx = 320, cy = 240;
+  for (const double angle : {0.0, 10.0, -15.0}) {
+    cv::Mat3b img = test::background(640, 480);
+    draw_disc(img, cx, cy, r);
+    cv::ellipse(img, cv::Point2d(cx + 0.45 * r, cy + 0.25 * r), cv::Size2d(1.1 * r, 0.14 * r), angle, 0, 360,
+                cv::Scalar(kLeaf[0], kLeaf[1], kLeaf[2]), -1, cv::LINE_8);
+    FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+    const Detections d = det.detect(img);
+    ASSERT_EQ(d.fruits.size(), 1u) << angle;
+    EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.05 * 2 * r) << angle;
+    EXPECT_NEAR(d.fruits[0].u, cx, 2.0) << angle;
+    EXPECT_NEAR(d.fruits[0].v, cy, 2.0) << angle;
+  }
+}
+
 TEST(FruitDetector, HolesAreFilled) {
   cv::Mat3b img = test::background(640, 480);
   draw_disc(img, 320, 240, 50);
