@@ -320,8 +320,11 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
   }
   // A fruit is given up for good once picked, unreachable, or out of attempts.
   if (outcome == fruit_outcome_t::PICKED || outcome == fruit_outcome_t::UNREACHABLE ||
-      attempts_[fruit_id] >= cfg_.max_attempts_per_fruit)
+      attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
     finished_.insert(fruit_id);
+    if (outcome != fruit_outcome_t::PICKED)
+      given_up_.push_back(current_ && current_->id == fruit_id ? current_->selected_from : target);
+  }
   note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
   out.status_changed = true;
 }
@@ -382,6 +385,11 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   for (const auto& t : view.targets) {
     if (finished_.count(t.fruit_id) || attempts_[t.fruit_id] >= cfg_.max_attempts_per_fruit) continue;
     const Eigen::Vector3d p = vec(t.position_base);
+    if (std::any_of(given_up_.begin(), given_up_.end(),
+                    [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; })) {
+      finished_.insert(t.fruit_id);  // a fruit already given up, seen again under a new id
+      continue;
+    }
     if (!cfg_.workspace.contains(p)) {
       attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
       record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "outside the reachable workspace", now, now, out);
@@ -394,7 +402,7 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
     enter(State::kDone, now, out);
     return;
   }
-  current_ = Fruit{best->fruit_id, vec(best->position_base), now};
+  current_ = Fruit{best->fruit_id, vec(best->position_base), now, vec(best->position_base)};
   ++attempts_[best->fruit_id];
   approach_->reset();
   pixel_.reset();

@@ -96,6 +96,7 @@ class HarvestMachine {
     int id = -1;
     Eigen::Vector3d estimate = Eigen::Vector3d::Zero();  // base frame, best so far
     rt::Micros selected_at = 0;
+    Eigen::Vector3d selected_from = Eigen::Vector3d::Zero();  // the fixed camera's position when selected
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -159,6 +160,10 @@ class HarvestMachine {
   std::optional<Fruit> current_;
   std::map<int, int> attempts_;
   std::set<int> finished_;
+  // Fixed-camera positions of fruit given up (not picked): the fixed camera's
+  // tracker gives a fruit a new id after the arm has hidden it, and the same
+  // fruit must not be tried again under its new id.
+  std::vector<Eigen::Vector3d> given_up_;
   std::vector<fruit_outcome_t> outcomes_;
   int picked_ = 0, lost_ = 0, unreachable_ = 0, failed_grasp_ = 0, aborted_ = 0;
 

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <array>
 #include <string>
 
@@ -34,10 +33,10 @@ struct Workspace {
 };
 
 struct Gains {
-  double kp_lateral = 2.0;  // [1/s] on the metric centring error (eq. 6-25, 6-26)
-  double kd_lateral = 0.05; // [s]
-  double kp_depth = 1.0;    // [1/s] on the depth error (eq. 6-27)
-  double kd_depth = 0.0;    // [s]
+  double kp_lateral = 2.0;         // [1/s] on the metric centring error (eq. 6-25, 6-26)
+  double kd_lateral = 0.05;        // [s]
+  double kp_depth = 1.0;           // [1/s] on the depth error (eq. 6-27)
+  double kd_depth = 0.0;           // [s]
   double derivative_filter = 0.5;  // low-pass weight of the newest error derivative, 0..1
 };
 
@@ -56,13 +55,13 @@ struct Timeouts {
 };
 
 struct ServoConfig {
-  double tick_period_s = 0.02;       // command rate (50 Hz)
-  double status_period_s = 1.0;      // periodic HARVEST_STATUS
-  double validity_s = 0.1;           // validity window of every robot command
-  double max_linear_speed = 0.381;   // [m/s] thesis 15 in/s
-  double max_angular_speed = 0.8;    // [rad/s]
-  double max_linear_accel = 1.0;     // [m/s^2]
-  double max_angular_accel = 3.0;    // [rad/s^2]
+  double tick_period_s = 0.02;      // command rate (50 Hz)
+  double status_period_s = 1.0;     // periodic HARVEST_STATUS
+  double validity_s = 0.1;          // validity window of every robot command
+  double max_linear_speed = 0.381;  // [m/s] thesis 15 in/s
+  double max_angular_speed = 0.8;   // [rad/s]
+  double max_linear_accel = 1.0;    // [m/s^2]
+  double max_angular_accel = 3.0;   // [rad/s^2]
 
   double ir_switch_distance = 0.4572;  // [m] thesis 18 in: switch to IR guidance
   double ir_approach_speed = 0.1;      // [m/s] forward speed under IR guidance
@@ -76,6 +75,7 @@ struct ServoConfig {
   double twist_angle = 1.5708;         // [rad] ... while twisting about it
   int max_attempts_per_fruit = 1;      // a failed fruit is retried at most this many times in total
   double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
+  double same_fruit_distance = 0.05;   // [m] a fixed-camera target this close to a given-up one is that fruit
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();

@@ -591,6 +591,21 @@ TEST(ClosedLoop, AFailedFruitIsNotRetriedForever) {
   expect_motion_stopped(loop);
 }
 
+TEST(ClosedLoop, AFruitGivenUpIsNotTriedAgainUnderANewFixedCameraId) {
+  // The arm hides the fruit from the fixed camera, whose tracker then gives
+  // it a new id: the same fruit at the same place is not attempted again.
+  WorldSpec spec = experiment_one();
+  spec.hide_hand_after_s = 0.0;
+  spec.fixed_ids_change_after_s = 1.0;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(published_outcomes(loop, 1).size(), 1u);
+  EXPECT_TRUE(published_outcomes(loop, 1001).empty());
+  EXPECT_EQ(loop.ctrl.machine().outcomes().size(), 1u);
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, GripperThatNeverReportsIsAFaultAndStops) {
   WorldSpec spec = experiment_one();
   spec.gripper_stuck = true;

@@ -147,7 +147,9 @@ void WorldDouble::publish_fixed() {
     if (where_[i] != Where::kTree) continue;
     const auto& f = spec_.fruits[i];
     target_t t{};
-    t.fruit_id = f.id;
+    const bool renumbered =
+        spec_.fixed_ids_change_after_s && rt::to_seconds(now() - start_) >= *spec_.fixed_ids_change_after_s;
+    t.fruit_id = renumbered ? f.id + 1000 : f.id;
     t.source_camera = "fixed";
     const Eigen::Vector3d p = f.position + spec_.fixed_error;
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
