@@ -395,6 +395,15 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
       record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "outside the reachable workspace", now, now, out);
       continue;
     }
+    // Every fruit is aimed at from home (eq. 6-19..6-22): a target beside or
+    // behind the gripper there (in the canopy, a cluster of fruit seen as one
+    // large, hence too near, fruit) cannot be turned to and seen.
+    const Eigen::Vector3d axis = cfg_.home_pose.linear().col(2);
+    if ((p - cfg_.home_pose.translation()).dot(axis) < cfg_.min_ahead_of_home) {
+      attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
+      record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "not ahead of the gripper at home", now, now, out);
+      continue;
+    }
     if (best == nullptr || t.cost < best->cost || (t.cost == best->cost && t.fruit_id < best->fruit_id)) best = &t;
   }
   if (best == nullptr) {

@@ -95,6 +95,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.twist_angle = n.get("twist_angle", c.twist_angle, {-6.3, 6.3});
   c.max_attempts_per_fruit = n.get("max_attempts_per_fruit", c.max_attempts_per_fruit, {1, 10});
   c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
+  c.min_ahead_of_home = n.get("min_ahead_of_home", c.min_ahead_of_home, {-10.0, 10.0});
   c.same_fruit_distance = n.get("same_fruit_distance", c.same_fruit_distance, nonneg);
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");

@@ -75,6 +75,7 @@ struct ServoConfig {
   double twist_angle = 1.5708;         // [rad] ... while twisting about it
   int max_attempts_per_fruit = 1;      // a failed fruit is retried at most this many times in total
   double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
+  double min_ahead_of_home = 0.05;     // [m] a target must lie this far ahead of the tool at home, along its axis
   double same_fruit_distance = 0.05;   // [m] a fixed-camera target this close to a given-up one is that fruit
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();

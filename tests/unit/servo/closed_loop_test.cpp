@@ -486,6 +486,24 @@ TEST(ClosedLoop, UnreachableFruitIsSkipped) {
   expect_motion_stopped(loop);
 }
 
+TEST(ClosedLoop, TargetBehindTheGripperAtHomeIsSkipped) {
+  // Inside the workspace, but 8.5 cm behind the tool point at home (a cluster
+  // of fruit seen as one big, hence too near, fruit by the fixed camera).
+  WorldSpec spec = experiment_one();
+  spec.fruits.insert(spec.fruits.begin(), FruitTruth{8, {-0.40, 0.70, -0.40}, 0.075});
+  spec.fixed_error.setZero();
+  const ServoConfig cfg = test_config();
+  ASSERT_TRUE(cfg.workspace.contains(spec.fruits.front().position));
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 8, fruit_outcome_t::UNREACHABLE, "not ahead of the gripper at home");
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    EXPECT_NE(st.current_fruit_id, 8);
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, EmergencyStopHaltsAtOnceAndLatchesUntilCleared) {
   WorldSpec spec = experiment_one();
   ServoConfig cfg = test_config();
