@@ -322,8 +322,9 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
   if (outcome == fruit_outcome_t::PICKED || outcome == fruit_outcome_t::UNREACHABLE ||
       attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
     finished_.insert(fruit_id);
-    if (outcome != fruit_outcome_t::PICKED)
-      given_up_.push_back(current_ && current_->id == fruit_id ? current_->selected_from : target);
+    const Eigen::Vector3d at = current_ && current_->id == fruit_id ? current_->selected_from : target;
+    finished_at_[fruit_id] = at;
+    if (outcome != fruit_outcome_t::PICKED) given_up_.push_back(at);
   }
   note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
   out.status_changed = true;
@@ -383,11 +384,20 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   const targets_t& view = *fixed_;
   const target_t* best = nullptr;
   for (const auto& t : view.targets) {
-    if (finished_.count(t.fruit_id) || attempts_[t.fruit_id] >= cfg_.max_attempts_per_fruit) continue;
     const Eigen::Vector3d p = vec(t.position_base);
+    if (finished_.count(t.fruit_id)) {
+      const auto at = finished_at_.find(t.fruit_id);
+      if (at == finished_at_.end() || (at->second - p).norm() <= cfg_.reused_id_distance) continue;
+      // Far from where this id was finished: another fruit under a reused id.
+      finished_.erase(t.fruit_id);
+      finished_at_.erase(t.fruit_id);
+      attempts_.erase(t.fruit_id);
+    }
+    if (attempts_[t.fruit_id] >= cfg_.max_attempts_per_fruit) continue;
     if (std::any_of(given_up_.begin(), given_up_.end(),
                     [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; })) {
       finished_.insert(t.fruit_id);  // a fruit already given up, seen again under a new id
+      finished_at_[t.fruit_id] = p;
       continue;
     }
     if (!cfg_.workspace.contains(p)) {

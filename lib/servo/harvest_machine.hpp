@@ -164,6 +164,10 @@ class HarvestMachine {
   // tracker gives a fruit a new id after the arm has hidden it, and the same
   // fruit must not be tried again under its new id.
   std::vector<Eigen::Vector3d> given_up_;
+  // Where each finished id was (fixed camera, at selection): the tracker may
+  // hand a finished fruit's id on to another fruit (a neighbour once the fruit
+  // is picked), which is then a new fruit, not a finished one.
+  std::map<int, Eigen::Vector3d> finished_at_;
   std::vector<fruit_outcome_t> outcomes_;
   int picked_ = 0, lost_ = 0, unreachable_ = 0, failed_grasp_ = 0, aborted_ = 0;
 

@@ -624,6 +624,22 @@ TEST(ClosedLoop, AFruitGivenUpIsNotTriedAgainUnderANewFixedCameraId) {
   expect_motion_stopped(loop);
 }
 
+TEST(ClosedLoop, AnIdPassedOnToAnotherFruitAfterAPickIsANewFruit) {
+  // Once fruit 1 is picked, the fixed camera's tracker gives fruit 2 its id.
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.01, -0.02, 0.03);
+  spec.fruits = {{1, {-0.2667, 1.0160, -0.5402}, 0.075}, {2, {-0.0686, 1.1684, -0.3751}, 0.075}};
+  spec.fixed_ids_follow_order = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  const auto status = loop.bus.messages<harvest_status_t>(ch::kHarvestStatus).back().second;
+  EXPECT_EQ(status.picked, 2);
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, GripperThatNeverReportsIsAFaultAndStops) {
   WorldSpec spec = experiment_one();
   spec.gripper_stuck = true;

@@ -135,6 +135,14 @@ void WorldDouble::on_attach() {
   ctx().add_timer(now() + 17 * rt::kMilli, 50 * rt::kMilli, [this] { publish_gripper(); });
 }
 
+int WorldDouble::fixed_id(std::size_t i) const {
+  if (!spec_.fixed_ids_follow_order) return spec_.fruits[i].id;
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < i; ++j)
+    if (where_[j] == Where::kTree) ++k;
+  return spec_.fruits[k].id;
+}
+
 void WorldDouble::publish_fixed() {
   if (spec_.fixed_camera_silent) return;
   targets_t m{};
@@ -149,7 +157,7 @@ void WorldDouble::publish_fixed() {
     target_t t{};
     const bool renumbered =
         spec_.fixed_ids_change_after_s && rt::to_seconds(now() - start_) >= *spec_.fixed_ids_change_after_s;
-    t.fruit_id = renumbered ? f.id + 1000 : f.id;
+    t.fruit_id = renumbered ? f.id + 1000 : fixed_id(i);
     t.source_camera = "fixed";
     const Eigen::Vector3d p = f.position + spec_.fixed_error;
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
@@ -205,7 +213,7 @@ void WorldDouble::publish_hand() {
     const Eigen::Vector3d est_cam(m.x() * z, m.y() * z, z);
     const Eigen::Vector3d est_base = cam * est_cam;
     target_t ht{};
-    ht.fruit_id = f.id;  // associated with the fixed-camera track
+    ht.fruit_id = fixed_id(i);  // associated with the fixed-camera track
     ht.source_camera = "hand";
     for (int j = 0; j < 3; ++j) {
       ht.position_base[j] = est_base[j];

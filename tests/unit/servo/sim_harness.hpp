@@ -84,14 +84,16 @@ struct WorldSpec {
   double pixel_noise = 0.5;                               // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
-  std::optional<double> hide_hand_after_s;         // fruit disappears from the hand camera for good
-  std::optional<double> hide_hand_for_s;           // ... only for this long
-  bool ir_dead = false;                            // IR always reports TOO_FAR
-  bool gripper_misses = false;                     // closes on nothing
-  bool gripper_stuck = false;                      // never finishes closing (no HOLDING/CLOSED report)
-  bool arm_ignores_goals = false;                  // pose goals are acknowledged but never executed
-  bool fruit_slips = false;                        // a held fruit falls out of the gripper 0.2 s after the grasp
-  bool fixed_camera_silent = false;                // no fixed-camera TARGETS at all
+  std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
+  std::optional<double> hide_hand_for_s;    // ... only for this long
+  bool ir_dead = false;                     // IR always reports TOO_FAR
+  bool gripper_misses = false;              // closes on nothing
+  bool gripper_stuck = false;               // never finishes closing (no HOLDING/CLOSED report)
+  bool arm_ignores_goals = false;           // pose goals are acknowledged but never executed
+  bool fruit_slips = false;                 // a held fruit falls out of the gripper 0.2 s after the grasp
+  bool fixed_camera_silent = false;         // no fixed-camera TARGETS at all
+  bool fixed_ids_follow_order =
+      false;  // the k-th fruit still on the tree has the k-th id (a picked fruit's id moves on)
   std::optional<double> fixed_ids_change_after_s;  // the fixed camera's tracker renumbers every fruit (id + 1000)
   std::optional<double> gripper_fault_after_s;
   std::optional<double> robot_fault_after_s;
@@ -135,6 +137,7 @@ class WorldDouble final : public rt::Node {
 
  private:
   enum class Where { kTree, kGripper, kDropped, kFallen };
+  int fixed_id(std::size_t i) const;  // the fixed camera's id of fruit i
   void publish_fixed();
   void publish_hand();
   void publish_ir();
