@@ -204,8 +204,10 @@ void Master::check_timeouts(Micros now) {
     DriveStatus& d = drives_[i];
     if (heartbeat_armed_[i] && now - d.last_heartbeat > config_.heartbeat_timeout)
       latch(i, &DriveStatus::heartbeat_lost, "heartbeat lost");
-    if (phase_ == MasterPhase::kRunning && sync_count_ > 0 &&
-        now - (d.seen_pdo ? d.last_tpdo : started_) > config_.pdo_timeout)
+    // Until a drive's first PDO it gets boot_timeout (a busy drive or bus at
+    // start); from then on the PDO watchdog is pdo_timeout.
+    const Micros limit = d.seen_pdo ? config_.pdo_timeout : std::max(config_.pdo_timeout, config_.boot_timeout);
+    if (phase_ == MasterPhase::kRunning && sync_count_ > 0 && now - (d.seen_pdo ? d.last_tpdo : started_) > limit)
       latch(i, &DriveStatus::pdo_lost, "no PDO from the drive");
   }
 }

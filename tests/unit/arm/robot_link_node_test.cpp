@@ -247,6 +247,31 @@ TEST(RobotLinkNode, EnablesAllDrivesAndPublishesToolAndCameraPoses) {
   EXPECT_GT(tool_r.col(2).y(), 0.99);
 }
 
+// A drive that is slow to send its first PDO after the first SYNC (a busy
+// drive or bus at start) is waited for up to boot_timeout; the 100 ms PDO
+// watchdog starts with the first PDO. (Loaded CI machines showed this: the
+// link latched "no PDO" 110 ms after enabling and never came up.)
+TEST(RobotLinkNode, FirstPdoLateAtStartIsWaitedFor) {
+  Rig rig(default_config());
+  // Drive 1 goes silent the moment it is started (NMT operational: SYNC and
+  // PDOs begin), for 160 ms: longer than the PDO watchdog (100 ms), shorter
+  // than the heartbeat timeout (200 ms), which keeps watching.
+  int silent_ms = -1;
+  ASSERT_TRUE(rig.run_until([&] { return rig.enabled_and_idle(); }, 5.0,
+                            [&] {
+                              if (silent_ms < 0 &&
+                                  rig.drives().drive(0).nmt_state() == canopen::NmtState::kOperational) {
+                                rig.drives().drive(0).set_silent(true);
+                                silent_ms = 0;
+                              } else if (silent_ms >= 0 && ++silent_ms == 160) {
+                                rig.drives().drive(0).set_silent(false);
+                              }
+                            }))
+      << rig.describe_last();
+  EXPECT_GE(silent_ms, 160);
+  EXPECT_EQ(rig.last().fault_flags & kFlagPdoLost, 0) << rig.last().fault_text;
+}
+
 TEST(RobotLinkNode, BringsDrivesFromAnyStateToOperationEnabled) {
   // A previous run left the drives operational: one enabled, one quick-stopped, one faulted.
   Rig rig(default_config(), [](simdrive::SimDriveSet& d) {
