@@ -153,6 +153,12 @@ void Master::handle_frame(const CanFrame& f, Micros now) {
     if (auto s = decode_heartbeat(f)) {
       d.nmt = *s;
       d.last_heartbeat = now;
+      // A started drive that still reports pre-operational before its first
+      // PDO missed the NMT start (a lost frame at start-up): start it again.
+      // After the first PDO a drive dropping out is a fault, not retried.
+      if (phase_ == MasterPhase::kRunning && heartbeat_armed_[static_cast<std::size_t>(i)] && !d.seen_pdo &&
+          *s == NmtState::kPreOperational)
+        send(nmt_frame(NmtCommand::kStart, dc.node_id));
     }
   } else if (fn == cob::kEmcy) {
     if (auto e = decode_emcy(f)) {

@@ -272,6 +272,25 @@ TEST(RobotLinkNode, FirstPdoLateAtStartIsWaitedFor) {
   EXPECT_EQ(rig.last().fault_flags & kFlagPdoLost, 0) << rig.last().fault_text;
 }
 
+// A drive that missed the NMT start (a lost frame at start-up: it stays
+// pre-operational and never sends a PDO) is started again from its heartbeat.
+TEST(RobotLinkNode, DriveThatMissedTheNmtStartIsStartedAgain) {
+  Rig rig(default_config());
+  bool knocked_back = false;
+  ASSERT_TRUE(rig.run_until(
+      [&] { return rig.enabled_and_idle(); }, 5.0,
+      [&] {
+        auto& d = rig.drives().drive(0);
+        if (!knocked_back && d.nmt_state() == canopen::NmtState::kOperational) {
+          d.handle_frame(canopen::nmt_frame(canopen::NmtCommand::kEnterPreOperational, d.config().node_id), rig.now());
+          knocked_back = true;
+        }
+      }))
+      << rig.describe_last();
+  EXPECT_TRUE(knocked_back);
+  EXPECT_EQ(rig.last().fault_flags, 0) << rig.last().fault_text;
+}
+
 TEST(RobotLinkNode, BringsDrivesFromAnyStateToOperationEnabled) {
   // A previous run left the drives operational: one enabled, one quick-stopped, one faulted.
   Rig rig(default_config(), [](simdrive::SimDriveSet& d) {
