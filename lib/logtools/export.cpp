@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "logtools/reflect.hpp"
+#include "runtime/json.hpp"
 
 namespace harvest::logtools {
 namespace {
@@ -44,7 +45,7 @@ std::string json_value(const Field& f) {
     case FieldKind::kString:
     case FieldKind::kBytes: {
       std::string quoted(1, '"');
-      quoted.append(json_escape(value_text(f))).push_back('"');
+      quoted.append(rt::json_escape(value_text(f))).push_back('"');
       return quoted;
     }
   }
@@ -52,38 +53,6 @@ std::string json_value(const Field& f) {
 }
 
 }  // namespace
-
-std::string json_escape(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out;
-}
 
 int64_t export_channel(const std::vector<rt::LogRecord>& log, const std::string& channel, const ExportOptions& options,
                        std::ostream& out) {
@@ -100,11 +69,11 @@ int64_t export_channel(const std::vector<rt::LogRecord>& log, const std::string&
     for (const auto& row : rows) {
       out << "{\"log_utime\":" << row.t;
       if (row.d.type == nullptr) {
-        out << ",\"error\":\"" << json_escape(row.d.error) << "\"}\n";
+        out << ",\"error\":\"" << rt::json_escape(row.d.error) << "\"}\n";
         continue;
       }
       for (const auto& f : row.d.fields.items())
-        if (keep(f.path, options)) out << ",\"" << json_escape(f.path) << "\":" << json_value(f);
+        if (keep(f.path, options)) out << ",\"" << rt::json_escape(f.path) << "\":" << json_value(f);
       out << "}\n";
     }
     return static_cast<int64_t>(rows.size());

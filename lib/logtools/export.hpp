@@ -26,6 +26,4 @@ struct ExportOptions {
 int64_t export_channel(const std::vector<rt::LogRecord>& log, const std::string& channel, const ExportOptions& options,
                        std::ostream& out);
 
-std::string json_escape(const std::string& s);
-
 }  // namespace harvest::logtools

@@ -9,44 +9,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "runtime/json.hpp"
 #include "runtime/process_main.hpp"
 #include "vision/nodes.hpp"
 
 namespace harvest::vision {
 
 namespace {
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (const unsigned char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out + "\"";
-}
 
 std::string number(double v, int decimals) {
   if (!std::isfinite(v)) return "null";
@@ -58,7 +27,7 @@ std::string number(double v, int decimals) {
 }  // namespace
 
 std::string detections_json(const std::string& image, int width, int height, const Detections& d) {
-  std::string s = "{\"image\": " + json_string(image) + ", \"width\": " + std::to_string(width) +
+  std::string s = "{\"image\": " + rt::json_quoted(image) + ", \"width\": " + std::to_string(width) +
                   ", \"height\": " + std::to_string(height) + ", \"fruits\": [";
   for (std::size_t i = 0; i < d.fruits.size(); ++i) {
     const Fruit& f = d.fruits[i];
@@ -259,7 +228,7 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     total.boxes += static_cast<int>(boxes.size());
     total.detections += static_cast<int>(dets.size());
     total.true_positives += tp;
-    out << "{\"image\": " << json_string(path) << ", \"width\": " << img.cols << ", \"height\": " << img.rows
+    out << "{\"image\": " << rt::json_quoted(path) << ", \"width\": " << img.cols << ", \"height\": " << img.rows
         << ", \"boxes\": " << boxes.size() << ", \"fruits\": " << dets.size() << ", \"true_positives\": " << tp
         << "}\n";
     if (!options.overlay_dir.empty()) {
