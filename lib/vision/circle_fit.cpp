@@ -13,19 +13,20 @@ std::optional<Circle> fit_circle(const std::vector<cv::Point2d>& points, int ite
   for (const auto& p : points) mean += p;
   mean *= 1.0 / static_cast<double>(n);
 
-  // Kasa: x^2 + y^2 + a x + b y + c = 0, linear least squares.
-  Eigen::MatrixXd a(n, 3);
-  Eigen::VectorXd rhs(n);
+  // Kasa: x^2 + y^2 + a x + b y + c = 0, linear least squares through the
+  // 3x3 normal equations (the data are centred, so they are well
+  // conditioned; no per-call allocation, the detector fits many circles).
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     const double x = points[i].x - mean.x, y = points[i].y - mean.y;
-    a(i, 0) = x;
-    a(i, 1) = y;
-    a(i, 2) = 1;
-    rhs(i) = -(x * x + y * y);
+    const Eigen::Vector3d row(x, y, 1.0);
+    ata += row * row.transpose();
+    atb -= row * (x * x + y * y);
   }
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
-  if (qr.rank() < 3) return std::nullopt;
-  const Eigen::Vector3d s = qr.solve(rhs);
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(ata);
+  if (lu.rank() < 3) return std::nullopt;
+  const Eigen::Vector3d s = lu.solve(atb);
   double cx = -s(0) / 2, cy = -s(1) / 2;
   const double r2 = cx * cx + cy * cy - s(2);
   if (!(r2 > 0)) return std::nullopt;
@@ -37,7 +38,7 @@ std::optional<Circle> fit_circle(const std::vector<cv::Point2d>& points, int ite
     Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
     for (const auto& p : points) {
       const double dx = p.x - mean.x - cx, dy = p.y - mean.y - cy;
-      const double dist = std::hypot(dx, dy);
+      const double dist = std::sqrt(dx * dx + dy * dy);
       if (dist < 1e-12) continue;
       const Eigen::Vector3d j(-dx / dist, -dy / dist, -1.0);
       const double res = dist - r;
@@ -49,12 +50,13 @@ std::optional<Circle> fit_circle(const std::vector<cv::Point2d>& points, int ite
     cx += step(0);
     cy += step(1);
     r += step(2);
-    if (step.norm() < 1e-9) break;
+    if (step.norm() < 1e-6) break;  // pixels: far below what matters
   }
   if (!(r > 0) || !std::isfinite(r)) return std::nullopt;
   double ss = 0;
   for (const auto& p : points) {
-    const double res = std::hypot(p.x - mean.x - cx, p.y - mean.y - cy) - r;
+    const double ex = p.x - mean.x - cx, ey = p.y - mean.y - cy;
+    const double res = std::sqrt(ex * ex + ey * ey) - r;
     ss += res * res;
   }
   return Circle{cx + mean.x, cy + mean.y, r, std::sqrt(ss / static_cast<double>(n))};

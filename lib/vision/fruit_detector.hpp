@@ -9,9 +9,12 @@
 //
 // Improvements for a real canopy, each switchable (DetectorConfig): mask
 // clean-up (opening, closing, hole filling), splitting of touching fruit
-// (distance-transform peaks), rejection of shapes that are not fruit-like, and
-// a diameter from a circle fitted to the visible outer contour, which
-// survives occlusion by leaves where the area-based diameter does not.
+// (distance-transform peaks), cutting off slivers of other fruit that stick
+// out of a piece's best-supported circle, merging of the fragments of one
+// fruit (pieces cut apart by a leaf or by the splitter whose outer edges lie
+// on one circle), rejection of shapes that are not fruit-like, and a
+// diameter from a circle fitted to the visible outer contour, which survives
+// occlusion by leaves where the area-based diameter does not.
 #pragma once
 
 #include <cstdint>
@@ -40,6 +43,10 @@ struct DetectorConfig {
   bool split_touching = false;
   double split_min_radius_px = 4.0;    // distance-transform peaks lower than this are not fruit centres
   double split_min_peak_ratio = 0.35;  // nor peaks below this fraction of the region's highest
+  bool peel_to_circle = false;         // cut what sticks out of a piece's best-supported circle (needs circle_fit)
+  bool merge_fragments = false;        // join pieces whose outer edges fit one circle (needs circle_fit)
+  double merge_max_gap_ratio = 0.5;    // pieces farther apart than this times the larger one's size are not tried
+  double sky_cb_min = 10.0;            // Cb above this is open sky, never inside a fruit's disc (merge check)
   bool reject_shapes = false;
   double min_roundness = 0.45;  // 4 pi A / P^2
   double min_solidity = 0.75;   // A / convex hull area
@@ -88,7 +95,11 @@ class FruitDetector {
   const DetectorConfig& config() const { return config_; }
 
  private:
-  void analyse(const cv::Mat1b& piece, cv::Point offset, cv::Size image, std::vector<Fruit>& out) const;
+  struct Piece;
+  Piece make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region) const;
+  void peel(Piece piece, cv::Size image, std::vector<Piece>& out) const;
+  void merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b& bgr) const;
+  void analyse(const Piece& piece, cv::Size image, std::vector<Fruit>& out) const;
   std::vector<std::pair<cv::Mat1b, cv::Point>> split(const cv::Mat1b& crop, cv::Point offset) const;
   // The region's visible outline fits one circle that covers it (a fruit, perhaps cut by a leaf).
   bool is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const;

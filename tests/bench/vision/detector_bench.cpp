@@ -88,6 +88,39 @@ void BM_DetectorCanopyMode(benchmark::State& state) {
 }
 BENCHMARK(BM_DetectorCanopyMode)->Unit(benchmark::kMicrosecond);
 
+// A 320x240 frame like the simulated full tree's (the fixed camera binned):
+// sky, 30 oranges of 14..22 px radius, many overlapping, and 70 leaves on
+// top that cut them into fragments.
+cv::Mat3b make_tree_frame() {
+  cv::Mat3b img(240, 320, cv::Vec3b(235, 190, 150));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> ux(0, 320), uy(0, 240), ur(14, 22), ua(0, 180), ul(8, 16);
+  for (int i = 0; i < 30; ++i)
+    cv::circle(img, cv::Point(static_cast<int>(ux(rng)), static_cast<int>(uy(rng))), static_cast<int>(ur(rng)),
+               cv::Scalar(30, 140, 230), -1);
+  for (int i = 0; i < 70; ++i) {
+    const double length = ul(rng);
+    cv::ellipse(img, cv::Point(static_cast<int>(ux(rng)), static_cast<int>(uy(rng))),
+                cv::Size(static_cast<int>(length), static_cast<int>(0.4 * length)), ua(rng), 0, 360,
+                cv::Scalar(40, 110, 50), -1);
+  }
+  return img;
+}
+
+// Canopy mode on the tree-like frame, with (1) and without (0) the fragment
+// steps (peel_to_circle, merge_fragments).
+void BM_DetectorCanopyTreeFrame(benchmark::State& state) {
+  const cv::Mat3b img = make_tree_frame();
+  cv::setNumThreads(1);
+  DetectorConfig cfg = DetectorConfig::canopy();
+  cfg.merge_fragments = cfg.peel_to_circle = state.range(0) != 0;
+  FruitDetector det(cfg, 833.57 / 2, 767.02 / 2);
+  std::size_t fruits = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(fruits = det.detect(img).fruits.size());
+  state.counters["fruits"] = static_cast<double>(fruits);
+}
+BENCHMARK(BM_DetectorCanopyTreeFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -332,6 +332,123 @@ TEST(FruitDetector, LeafAcrossOneFruitDoesNotSplitIt) {
   }
 }
 
+// Canopy mode without the fragment steps (the detector before them).
+DetectorConfig without_fragment_steps() {
+  DetectorConfig c = DetectorConfig::canopy();
+  c.merge_fragments = false;
+  c.peel_to_circle = false;
+  return c;
+}
+
+void draw_leaf_stripe(cv::Mat3b& img, cv::Point2d a, cv::Point2d b, int width) {
+  cv::line(img, a, b, cv::Scalar(kLeaf[0], kLeaf[1], kLeaf[2]), width, cv::LINE_8);
+}
+
+TEST(FruitDetector, LeafStripeAcrossFruitGivesOneDetection) {
+  // The full-tree scenario: a leaf lying across a fruit cuts its mask into
+  // two regions; each alone has a small diameter and lands 2-3 times too deep.
+  for (const double r : {18.0, 40.0}) {
+    for (const double angle_deg : {0.0, 35.0, 80.0}) {
+      for (const double shift : {0.0, 0.3}) {
+        cv::Mat3b img = test::background(640, 480);
+        const double cx = 300.4, cy = 211.7;
+        draw_disc(img, cx, cy, r);
+        const double a = angle_deg * std::numbers::pi / 180, nx = -std::sin(a), ny = std::cos(a);
+        const cv::Point2d mid(cx + shift * r * nx, cy + shift * r * ny), dir(std::cos(a), std::sin(a));
+        draw_leaf_stripe(img, mid - 2 * r * dir, mid + 2 * r * dir, static_cast<int>(0.3 * r));
+        const std::string what =
+            "r " + std::to_string(r) + " angle " + std::to_string(angle_deg) + " shift " + std::to_string(shift);
+        FruitDetector before(without_fragment_steps(), kFx, kFy);
+        EXPECT_GE(before.detect(img).fruits.size(), 2u) << what;
+        FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+        const Detections d = det.detect(img);
+        ASSERT_EQ(d.fruits.size(), 1u) << what;
+        EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.05 * 2 * r) << what;
+        EXPECT_NEAR(d.fruits[0].u, cx, 0.1 * r) << what;
+        EXPECT_NEAR(d.fruits[0].v, cy, 0.1 * r) << what;
+      }
+    }
+  }
+}
+
+TEST(FruitDetector, FruitInThreeFragmentsGivesOneDetection) {
+  // Two leaves across one fruit (about 60 % of it visible).
+  for (const double r : {20.0, 40.0}) {
+    cv::Mat3b img = test::background(640, 480);
+    const double cx = 320, cy = 240;
+    draw_disc(img, cx, cy, r);
+    draw_leaf_stripe(img, {cx - 2 * r, cy - 0.35 * r}, {cx + 2 * r, cy - 0.15 * r}, static_cast<int>(0.3 * r));
+    draw_leaf_stripe(img, {cx - 0.2 * r, cy - 2 * r}, {cx + 0.3 * r, cy + 2 * r}, static_cast<int>(0.3 * r));
+    FruitDetector before(without_fragment_steps(), kFx, kFy);
+    EXPECT_GE(before.detect(img).fruits.size(), 3u) << r;
+    FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+    const Detections d = det.detect(img);
+    ASSERT_EQ(d.fruits.size(), 1u) << r;
+    EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.06 * 2 * r) << r;
+  }
+}
+
+TEST(FruitDetector, SliverOfAFruitBehindIsCutOff) {
+  // A fruit with the visible crescent of one behind it attached. Before,
+  // the region was not split (one distance-transform peak), its hull took
+  // in the crescent's tips and the shape tests rejected it: no fruit at all.
+  const double r = 40, cx = 300, cy = 240;
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, cx + 30, cy - 45, r);               // behind
+  draw_disc(img, cx + 40, cy - 55, 0.8 * r, kLeaf);  // a leaf hides most of it
+  draw_disc(img, cx, cy, r);                         // in front
+  const auto front_found = [&](const Detections& d) {
+    return std::any_of(d.fruits.begin(), d.fruits.end(), [&](const Fruit& f) {
+      return std::hypot(f.u - cx, f.v - cy) < 2.0 && std::fabs(f.diameter_px - 2 * r) < 0.05 * 2 * r;
+    });
+  };
+  FruitDetector before(without_fragment_steps(), kFx, kFy);
+  EXPECT_FALSE(front_found(before.detect(img)));
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = det.detect(img);
+  EXPECT_TRUE(front_found(d));
+  // The crescent goes on alone; its outline is the fruit behind's.
+  ASSERT_EQ(d.fruits.size(), 2u);
+  for (const Fruit& f : d.fruits) EXPECT_NEAR(f.diameter_px, 2 * r, 0.05 * 2 * r);
+}
+
+TEST(FruitDetector, HalvesOfTwoFruitAreNotMerged) {
+  // The outer halves of two fruit (inner halves behind a leaf, sky around):
+  // two fruit, each with its own circle.
+  cv::Mat3b img(480, 640, test::kSky);
+  draw_disc(img, 280, 240, 28);
+  draw_disc(img, 360, 240, 28);
+  img(cv::Rect(280, 200, 81, 81)) = kLeaf;
+  img(cv::Rect(300, 226, 40, 28)) = test::kSky;
+  FruitDetector det(DetectorConfig::canopy(), kFx, kFy);
+  const Detections d = det.detect(img);
+  ASSERT_EQ(d.fruits.size(), 2u);
+  for (const Fruit& f : d.fruits) EXPECT_NEAR(f.diameter_px, 56, 0.08 * 56);
+}
+
+TEST(FruitDetector, ShadedSideOfASunlitFruitPassesTheThesisThresholds) {
+  // Lambertian shading as in the simulator's tree scene (sun [-0.6, -0.5,
+  // 0.4], ambient 0.45): the dark side is still fruit-coloured (Cr about 36
+  // at ambient alone), so the whole disc is found.
+  const double r = 40, cx = 320, cy = 240;
+  cv::Mat3b img = test::background(640, 480);
+  const cv::Vec3d sun = cv::normalize(cv::Vec3d(-0.6, -0.5, 0.4));
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const double dx = (x - cx) / r, dy = (y - cy) / r, d2 = dx * dx + dy * dy;
+      if (d2 > 1) continue;
+      const cv::Vec3d n(dx, dy, -std::sqrt(1 - d2));  // towards the camera
+      const double light = 0.45 + 0.55 * std::max(0.0, n.dot(sun));
+      for (int k = 0; k < 3; ++k) img(y, x)[k] = cv::saturate_cast<uchar>(kOrange[k] * light);
+    }
+  for (const bool canopy : {false, true}) {
+    FruitDetector det(canopy ? DetectorConfig::canopy() : DetectorConfig::thesis(), kFx, kFy);
+    const Detections d = det.detect(img);
+    ASSERT_EQ(d.fruits.size(), 1u);
+    EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.03 * 2 * r) << canopy;
+  }
+}
+
 TEST(FruitDetector, HolesAreFilled) {
   cv::Mat3b img = test::background(640, 480);
   draw_disc(img, 320, 240, 50);
@@ -416,8 +533,12 @@ TEST(DetectorConfig, FromYaml) {
   EXPECT_EQ(c.thresholds.cr_min, 30);
   EXPECT_EQ(c.thresholds.cr_max, 90);
   EXPECT_EQ(c.min_area_px, 20);
+  EXPECT_FALSE(c.merge_fragments);
+  EXPECT_FALSE(c.peel_to_circle);
   auto canopy = config::Document::load_string("{}");
   EXPECT_TRUE(DetectorConfig::from_yaml(canopy.root()).circle_fit);
+  EXPECT_TRUE(DetectorConfig::from_yaml(canopy.root()).merge_fragments);
+  EXPECT_TRUE(DetectorConfig::from_yaml(canopy.root()).peel_to_circle);
 
   auto bad = config::Document::load_string("mode: magic\n");
   EXPECT_THROW(DetectorConfig::from_yaml(bad.root()), config::Error);
