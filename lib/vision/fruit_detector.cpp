@@ -181,16 +181,21 @@ double circle_coverage(const std::vector<cv::Point2d>& points, const Circle& c) 
 
 // Pixels of a mask (placed at `offset` in the image) outside the disc.
 int pixels_outside(const cv::Mat1b& mask, cv::Point offset, const Circle& c, double margin) {
-  const double r2 = (c.r + margin) * (c.r + margin);
+  // Row by row, only the stretches left and right of the disc's chord.
+  const double r = c.r + margin;
   int outside = 0;
   for (int y = 0; y < mask.rows; ++y) {
     const uchar* row = mask.ptr<uchar>(y);
     const double dy = y + offset.y - c.cy;
-    for (int x = 0; x < mask.cols; ++x) {
-      if (!row[x]) continue;
-      const double dx = x + offset.x - c.cx;
-      outside += dx * dx + dy * dy > r2;
+    int x0 = mask.cols, x1 = -1;  // inside: x0..x1
+    if (std::fabs(dy) <= r) {
+      const double half = std::sqrt(r * r - dy * dy);
+      x0 = std::max(0, static_cast<int>(std::ceil(c.cx - half - offset.x)));
+      x1 = std::min(mask.cols - 1, static_cast<int>(std::floor(c.cx + half - offset.x)));
     }
+    if (x0 > x1) x0 = mask.cols, x1 = mask.cols - 1;
+    for (int x = 0; x < std::min(x0, mask.cols); ++x) outside += row[x] != 0;
+    for (int x = x1 + 1; x < mask.cols; ++x) outside += row[x] != 0;
   }
   return outside;
 }
@@ -201,16 +206,17 @@ int pixels_outside(const cv::Mat1b& mask, cv::Point offset, const Circle& c, dou
 double sky_share(const cv::Mat3b& bgr, const Circle& c, double cb_min) {
   const double r = c.r - 1.5;
   if (r <= 0) return 0.0;
+  const int step = std::max(1, static_cast<int>(r / 12));  // about 450 samples at most
   const int y0 = std::max(0, static_cast<int>(std::ceil(c.cy - r))),
             y1 = std::min(bgr.rows - 1, static_cast<int>(c.cy + r));
   const int x0 = std::max(0, static_cast<int>(std::ceil(c.cx - r))),
             x1 = std::min(bgr.cols - 1, static_cast<int>(c.cx + r));
   const long limit = std::lround(cb_min * 1000.0);
   long inside = 0, sky = 0;
-  for (int y = y0; y <= y1; ++y) {
+  for (int y = y0; y <= y1; y += step) {
     const cv::Vec3b* row = bgr.ptr<cv::Vec3b>(y);
     const double dy = y - c.cy;
-    for (int x = x0; x <= x1; ++x) {
+    for (int x = x0; x <= x1; x += step) {
       const double dx = x - c.cx;
       if (dx * dx + dy * dy > r * r) continue;
       ++inside;
@@ -237,21 +243,32 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
                                              const std::vector<cv::Point2d>& outline, double r_min, double r_max) {
   const std::size_t n = edge.size();
   if (n < 8) return std::nullopt;
-  const std::size_t allowed_out = outline.size() * 3 / 100 + 1;
-  const auto on_count = [&](const Circle& c) {
-    return c.r >= r_min && c.r <= r_max ? points_on_circle(edge, c) : std::size_t{0};
+  // Candidates are scored on at most about 160 points of each set (a large
+  // fruit near the camera has thousands of outline points).
+  const auto thin = [](const std::vector<cv::Point2d>& points) {
+    const std::size_t stride = points.size() / 160 + 1;
+    std::vector<cv::Point2d> out;
+    for (std::size_t i = 0; i < points.size(); i += stride) out.push_back(points[i]);
+    return out;
+  };
+  const std::vector<cv::Point2d> scored = n > 160 ? thin(edge) : edge;
+  const std::vector<cv::Point2d> held = outline.size() > 160 ? thin(outline) : outline;
+  const std::size_t min_on = std::max<std::size_t>(3, 8 * scored.size() / n);
+  const std::size_t allowed_out = held.size() * 3 / 100 + 1;
+  const auto on_count = [&](const Circle& c, const std::vector<cv::Point2d>& points) {
+    return c.r >= r_min && c.r <= r_max ? points_on_circle(points, c) : std::size_t{0};
   };
   const auto contains = [&](const Circle& c) {
     const double r2 = (c.r + 1.5) * (c.r + 1.5);
     std::size_t out = 0;
-    for (const auto& p : outline)
+    for (const auto& p : held)
       if ((p.x - c.cx) * (p.x - c.cx) + (p.y - c.cy) * (p.y - c.cy) > r2 && ++out > allowed_out) return false;
     return true;
   };
-  std::optional<OutlineFit> best;
+  std::optional<OutlineFit> best;  // .on counts the scored points until the refit
   const auto consider = [&](const Circle& c) {
-    const std::size_t on = on_count(c);
-    if (on < 8 || (best && on <= best->on) || !contains(c)) return;
+    const std::size_t on = on_count(c, scored);
+    if (on < min_on || (best && on <= best->on) || !contains(c)) return;
     best = OutlineFit{c, on};
   };
   uint32_t state = 0x9e3779b9u ^ static_cast<uint32_t>(n);
@@ -268,12 +285,14 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
     const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
     const double ux = (cy * b2 - by * c2) / d, uy = (bx * c2 - cx * b2) / d;
     consider(Circle{a.x + ux, a.y + uy, std::sqrt(ux * ux + uy * uy), 0});
-    if (best && best->on >= n * 9 / 10) break;  // it could hardly get better
+    if (best && best->on >= scored.size() * 9 / 10) break;  // it could hardly get better
   }
   if (!best) return best;
-  const auto on = on_circle(edge, best->circle);
-  if (const auto refit = fit_circle(on); refit && on_count(*refit) >= best->on && contains(*refit)) {
-    best = OutlineFit{*refit, on_count(*refit)};
+  best->on = on_count(best->circle, edge);
+  auto on = on_circle(edge, best->circle);
+  if (on.size() > 320) on = thin(on);  // 160 points are plenty for the refit
+  if (const auto refit = fit_circle(on); refit && on_count(*refit, edge) >= best->on && contains(*refit)) {
+    best = OutlineFit{*refit, on_count(*refit, edge)};
   } else {
     double ss = 0;
     for (const auto& p : on) {
@@ -372,11 +391,21 @@ void FruitDetector::peel(Piece piece, cv::Size image, std::vector<Piece>& out) c
       (dx * dx + dy * dy <= r2 ? inside : rest)(y, x) = 255;
     }
   out.push_back(make_piece(inside, piece.offset, image, &piece.mask));
-  cv::Mat1i labels;
-  const int n = cv::connectedComponents(rest, labels, 4);
+  // Each part outside on a mask of its own size (with the empty frame).
+  cv::Mat1i labels, stats;
+  cv::Mat centroids;
+  const int n = cv::connectedComponentsWithStats(rest, labels, stats, centroids, 4);
   for (int k = 1; k < n; ++k) {
-    cv::Mat1b part = labels == k;
-    out.push_back(make_piece(part, piece.offset, image, &piece.mask));
+    const cv::Rect box(stats(k, cv::CC_STAT_LEFT), stats(k, cv::CC_STAT_TOP), stats(k, cv::CC_STAT_WIDTH),
+                       stats(k, cv::CC_STAT_HEIGHT));
+    cv::Mat1b part = cv::Mat1b::zeros(box.height + 2, box.width + 2);
+    part(cv::Rect(1, 1, box.width, box.height)).setTo(255, labels(box) == k);
+    cv::Mat1b region = cv::Mat1b::zeros(part.size());
+    const cv::Rect from = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) &
+                          cv::Rect(0, 0, piece.mask.cols, piece.mask.rows);
+    piece.mask(from).copyTo(region(from - cv::Point(box.x - 1, box.y - 1)));
+    const cv::Point at = piece.offset + cv::Point(box.x - 1, box.y - 1);
+    out.push_back(make_piece(part, at, image, &region));
   }
 }
 

@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> overrides;
   int first = 0, count = 60, every = 1, verbose_frames = 0;
   double min_visible = 0.5;
+  std::string camera = "fixed";
   CLI::App app("Fixed-camera fruit detector against the simulator's truth", "harvest-vision-eval");
   app.add_option("log", log_path, "LCM log with CAMERA_FIXED and SIM_TRUTH")->required();
   app.add_option("--config,-c", config_file, "detector configuration")->required();
@@ -61,6 +62,8 @@ int main(int argc, char** argv) {
   app.add_option("--count", count, "frames to score");
   app.add_option("--every", every, "every n-th frame");
   app.add_option("--min-visible", min_visible, "score fruit at least this visible");
+  app.add_option("--camera", camera, "fixed, or hand (pose from SIM_TRUTH; no visibility: every fruit in view)")
+      ->check(CLI::IsMember({"fixed", "hand"}));
   app.add_option("--verbose", verbose_frames, "print per-fruit lines for this many frames");
   std::vector<int> crop;
   app.add_option("--crop", crop, "with --overlay: also write this sensor-pixel rectangle x y w h, 3x")->expected(4);
@@ -79,13 +82,13 @@ int main(int argc, char** argv) {
   vision::CameraModel truth_cam;
   truth_cam.fx = 833.57, truth_cam.fy = 767.02, truth_cam.cx = 319.5, truth_cam.cy = 239.5;
   truth_cam.width = 640, truth_cam.height = 480;
-  const auto dist = cams.child("fixed").numbers("distortion_coefficients", {0, 0, 0, 0, 0}, 5);
+  const auto dist = cams.child(camera).numbers("distortion_coefficients", {0, 0, 0, 0, 0}, 5);
   std::copy(dist.begin(), dist.end(), truth_cam.dist.begin());
   const auto rv = cams.child("fixed_extrinsic_truth").numbers("rotation", 9);
   const auto tv = cams.child("fixed_extrinsic_truth").numbers("translation_mm", 3);
   Eigen::Matrix3d rot;
   rot << rv[0], rv[1], rv[2], rv[3], rv[4], rv[5], rv[6], rv[7], rv[8];
-  const Eigen::Vector3d pos(tv[0] * 1e-3, tv[1] * 1e-3, tv[2] * 1e-3);
+  Eigen::Vector3d pos(tv[0] * 1e-3, tv[1] * 1e-3, tv[2] * 1e-3);
   const double f_mean = 0.5 * (node_config.calibration.fx + node_config.calibration.fy);
   const double d_o = node_config.detector.fruit_diameter_m;
 
@@ -105,7 +108,7 @@ int main(int argc, char** argv) {
       truth = rt::decode<sim_truth_t>(r.data);
       continue;
     }
-    if (r.channel != "CAMERA_FIXED") continue;
+    if (r.channel != (camera == "hand" ? "CAMERA_HAND" : "CAMERA_FIXED")) continue;
     ++index;
     if (index < first || (index - first) % every != 0 || !truth) continue;
     if (scored_frames >= count) break;
@@ -122,6 +125,12 @@ int main(int argc, char** argv) {
 
     // Truth in sensor pixels: the silhouette of each sphere (its limb circle) projected.
     std::vector<Truth> fruits;
+    if (camera == "hand") {
+      const auto& o = truth->hand_camera_pose.orientation;
+      rot = Eigen::Quaterniond(o[0], o[1], o[2], o[3]).normalized().toRotationMatrix();
+      pos = Eigen::Vector3d(truth->hand_camera_pose.position[0], truth->hand_camera_pose.position[1],
+                            truth->hand_camera_pose.position[2]);
+    }
     for (const auto& f : truth->fruits) {
       if (f.state != sim_fruit_truth_t::ON_TREE) continue;
       const Eigen::Vector3d p =
@@ -141,7 +150,7 @@ int main(int argc, char** argv) {
       t.centre = truth_cam.project(p);
       t.diameter_px = 0.5 * ((x1 - x0) + (y1 - y0));
       t.depth_m = p.z();
-      t.visible = f.visible_fraction_fixed;
+      t.visible = camera == "hand" ? 1.0f : f.visible_fraction_fixed;
       t.id = f.sim_id;
       if (t.centre.x() < -t.diameter_px || t.centre.y() < -t.diameter_px || t.centre.x() > 640 + t.diameter_px ||
           t.centre.y() > 480 + t.diameter_px)
