@@ -92,6 +92,12 @@ ArmModel ArmModel::from_config(const config::Node& node) {
   const auto home = node.numbers("home_deg", m.joints.size());
   m.home = Eigen::Map<const Eigen::VectorXd>(home.data(), static_cast<Eigen::Index>(home.size())) * kDeg;
   if (!m.within_limits(m.home)) node.fail("home_deg", "a configuration inside every joint's limits");
+  m.rest = m.home;
+  if (node.has("rest_deg")) {
+    const auto rest = node.numbers("rest_deg", m.joints.size());
+    m.rest = Eigen::Map<const Eigen::VectorXd>(rest.data(), static_cast<Eigen::Index>(rest.size())) * kDeg;
+    if (!m.within_limits(m.rest)) node.fail("rest_deg", "a configuration inside every joint's limits");
+  }
   return m;
 }
 

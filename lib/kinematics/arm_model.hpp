@@ -32,6 +32,8 @@ struct ArmModel {
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // tool centre point in the flange frame
   Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();  // hand camera optical frame in the flange frame
   Eigen::VectorXd home;                                      // [rad]
+  // Posture the IK's null-space motion pulls toward (rest_deg, default home_deg).
+  Eigen::VectorXd rest;  // [rad]
 
   int dof() const { return static_cast<int>(joints.size()); }
   Eigen::VectorXd lower() const;

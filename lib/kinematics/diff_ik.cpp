@@ -27,14 +27,16 @@ Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::Vec
   const Eigen::MatrixXd& v = svd.matrixV();
   Eigen::VectorXd qdot = v * inv.asDiagonal() * svd.matrixU().transpose() * twist;
 
-  // Null-space motion toward the centre of each joint's range. A locked
-  // joint's column is zero, so its component passes the projector unchanged:
-  // it must be zero here.
+  // Null-space motion toward the rest posture, scaled by each joint's range.
+  // Not toward the middle of each range: for a pitch joint that is the
+  // straight, singular configuration (a straight elbow cannot pull the tool
+  // back; a straight wrist swings its two rolls against their limits). A
+  // locked joint's column is zero, so its component passes the projector
+  // unchanged: it must be zero here.
   Eigen::VectorXd centring(n);
   for (int i = 0; i < n; ++i) {
     const auto& jt = model.joints[i];
-    centring[i] =
-        is_locked(i) ? 0.0 : -options.null_space_gain * (q[i] - 0.5 * (jt.min + jt.max)) / (0.5 * (jt.max - jt.min));
+    centring[i] = is_locked(i) ? 0.0 : -options.null_space_gain * (q[i] - model.rest[i]) / (0.5 * (jt.max - jt.min));
   }
   // Projector onto the null space of the full-rank part of J.
   Eigen::MatrixXd projector = Eigen::MatrixXd::Identity(n, n);
@@ -53,8 +55,10 @@ Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen:
   for (int pass = 0; pass < n; ++pass) {
     bool changed = false;
     for (int i = 0; i < n; ++i) {
+      // Only motion further out is stopped: a joint that overshot its limit
+      // (by its deceleration) must stay free to come back inside.
       const double next = q[i] + qdot[i] * dt;
-      if (!locked[i] && (next > model.joints[i].max || next < model.joints[i].min)) {
+      if (!locked[i] && ((qdot[i] > 0 && next > model.joints[i].max) || (qdot[i] < 0 && next < model.joints[i].min))) {
         locked[i] = true;
         changed = true;
         ++count;

@@ -2,9 +2,9 @@
 //
 // Damped least squares (Nakamura & Hanafusa; damping ramps up only near a
 // singularity, so away from one the task is tracked exactly) with the
-// redundancy spent on staying away from joint limits: a gradient step on the
-// distance to the joint-range centres, projected into the Jacobian's null
-// space so it never disturbs the tool.
+// redundancy spent on staying near the arm's rest posture (away from joint
+// limits and singularities): a gradient step on the distance to it, projected
+// into the Jacobian's null space so it never disturbs the tool.
 #pragma once
 
 #include <Eigen/Core>

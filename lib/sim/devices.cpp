@@ -52,8 +52,28 @@ Eigen::Isometry3d to_isometry(const Placement& p) {
 StartConfiguration start_joints(const kinematics::ArmModel& model, const Eigen::Isometry3d& mounting,
                                 const Placement& start) {
   const Eigen::Isometry3d to_robot = mounting.inverse();
-  auto solve = [&](const Mat3& rotation) {
-    return kinematics::solve_pose(model, to_robot * to_isometry({rotation, start.position}), model.home);
+  const Eigen::Isometry3d home = kinematics::tool_pose(model, model.home);
+  auto solve = [&](const Mat3& rotation) -> std::optional<Eigen::VectorXd> {
+    const Eigen::Isometry3d goal = to_robot * to_isometry({rotation, start.position});
+    // The arm got to its start pose from home: follow the straight path there
+    // in small steps, so the joints are the ones continuous with home (same
+    // elbow and wrist branch, as the robot link's motions keep them), not
+    // whichever solution a cold solve happens to find. A cold solve is the
+    // fallback when the straight path leaves the joint ranges.
+    constexpr int kSteps = 40;
+    kinematics::PoseSolveOptions step_options;
+    step_options.restarts = 0;
+    const Eigen::Quaterniond from(home.linear()), to(goal.linear());
+    std::optional<Eigen::VectorXd> q = model.home;
+    for (int k = 1; k <= kSteps && q; ++k) {
+      const double f = static_cast<double>(k) / kSteps;
+      Eigen::Isometry3d via = Eigen::Isometry3d::Identity();
+      via.translation() = home.translation() + f * (goal.translation() - home.translation());
+      via.linear() = from.slerp(f, to).toRotationMatrix();
+      q = kinematics::solve_pose(model, via, *q, step_options);
+    }
+    if (q) return q;
+    return kinematics::solve_pose(model, goal, model.home);
   };
   if (auto q = solve(start.rotation)) return {*q, 0.0};
   // The exact orientation is out of the wrist's range: keep the position and

@@ -157,8 +157,27 @@ TEST(DiffIk, NullSpaceMovesJointsAwayFromLimitsWithoutMovingTheTool) {
     Twist hold = 20.0 * pose_error(start, tool_pose(m, q));
     q += joint_velocity_for_twist(m, q, hold) * 0.01;
   }
-  EXPECT_LT(q[2], 120 * kDeg);
+  EXPECT_LT(q[2], 130 * kDeg);  // toward the rest posture (24 deg)
   EXPECT_LT(pose_error(start, tool_pose(m, q)).norm(), 1e-4);
+}
+
+// At a position limit only motion further out is stopped; a joint that
+// overshot its limit must be free to come back (else the arm stays stuck
+// there: seen in the tree scenario, the elbow 1 deg past its limit).
+TEST(DiffIk, AJointPastItsLimitMayComeBackButNotGoFurther) {
+  const ArmModel m = k1207i();
+  Eigen::VectorXd q = m.home;
+  q[3] = m.joints[3].max + 0.02;
+  const Twist inward = -0.1 * tool_jacobian(m, q).col(3);
+  int locked = -1;
+  Eigen::VectorXd qd = joint_velocity_within_limits(m, q, inward, 0.01, {}, &locked);
+  EXPECT_EQ(locked, 0);
+  EXPECT_LT(qd[3], -0.05);
+  q[3] = m.joints[3].max - 1e-4;
+  const Twist outward = 0.1 * tool_jacobian(m, q).col(3);
+  qd = joint_velocity_within_limits(m, q, outward, 0.01, {}, &locked);
+  EXPECT_EQ(locked, 1);
+  EXPECT_NEAR(qd[3], 0.0, 1e-12);
 }
 
 TEST(DiffIk, ThesisToolPositionsAreReachableTowardTheTree) {
