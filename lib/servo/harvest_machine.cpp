@@ -278,8 +278,49 @@ Eigen::Isometry3d HarvestMachine::inside_workspace(const Eigen::Isometry3d& goal
 void HarvestMachine::start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out) {
   goal_ = inside_workspace(goal);
   ++goal_id_;
+  goal_best_position_ = std::numeric_limits<double>::infinity();
+  goal_best_rotation_ = std::numeric_limits<double>::infinity();
+  goal_progress_at_ = now;
   enter(s, now, out);
   out.robot = goal_command();
+}
+
+bool HarvestMachine::goal_stalled(rt::Micros now) {
+  // Progress is a step of at least 2 mm or 0.01 rad toward the goal: well
+  // above encoder noise, well below what the slowest goal motion covers in a
+  // stall period.
+  constexpr double kPositionStep = 0.002, kRotationStep = 0.01;
+  const Eigen::Isometry3d t = tool();
+  const double position = (t.translation() - goal_.translation()).norm();
+  const double rotation = rotation_distance(t.rotation(), goal_.rotation());
+  bool progress = false;
+  if (position < goal_best_position_ - kPositionStep || !std::isfinite(goal_best_position_)) {
+    goal_best_position_ = position;
+    progress = true;
+  }
+  if (rotation < goal_best_rotation_ - kRotationStep || !std::isfinite(goal_best_rotation_)) {
+    goal_best_rotation_ = rotation;
+    progress = true;
+  }
+  if (progress) goal_progress_at_ = now;
+  return now - goal_progress_at_ > rt::from_seconds(cfg_.timeouts.stall);
+}
+
+void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out) {
+  switch (state_) {
+    case State::kOrient:
+      // Aiming happens at home, so the arm is still clear of the canopy: the
+      // fruit is out of its reach in that direction; others may not be.
+      fail_fruit(fruit_outcome_t::UNREACHABLE, "the arm could not turn to it (" + why + ")", false, now, out);
+      break;
+    case State::kRetreat:
+      note_ = "retreat " + why + ", returning home directly";
+      start_goal(cfg_.home_pose, State::kReturn, now, out);
+      break;
+    default:
+      fault("motion " + why + " in " + state_name(state_), now, out);
+      break;
+  }
 }
 
 bool HarvestMachine::goal_reached() const {
@@ -464,9 +505,25 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
       fault("gripper did not report open in time", now, out);
       break;
     default:
-      fault(std::string("motion did not complete in ") + state_name(state_), now, out);
+      motion_blocked("did not complete", now, out);
       break;
   }
+}
+
+double HarvestMachine::ir_forward_speed(bool ir_sees_fruit) const {
+  // Fast while far, then proportional to the range still to go, so the arm
+  // reaches the grasp range slowly: the stop overshoots by v^2 / 2a plus the
+  // travel during one IR period. Before the IR sees the fruit, the hand
+  // camera's estimate says how far it is (the IR range is from the palm, the
+  // estimate to the fruit centre: both end at the grasp point within a few cm).
+  double to_go;
+  if (ir_sees_fruit) {
+    to_go = ir_->range_m - cfg_.ir_grasp_range;
+  } else {
+    const Eigen::Isometry3d t = tool();
+    to_go = (current_->estimate - t.translation()).dot(t.rotation().col(2));
+  }
+  return std::clamp(cfg_.ir_slowdown_gain * to_go, cfg_.ir_min_speed, cfg_.ir_approach_speed);
 }
 
 // ---------------------------------------------------------------- inputs
@@ -637,6 +694,7 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
       paused_ = false;
       // Timeouts do not run while paused.
       if (deadline_ != 0) deadline_ += now - paused_at_;
+      goal_progress_at_ += now - paused_at_;
       limiter_.reset();
       note_ = "resumed by " + who;
       break;
@@ -760,6 +818,10 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
     case State::kReturn:
     case State::kHoming:
       if (!goal_reached()) {
+        if (goal_stalled(now)) {
+          motion_blocked("stalled", now, out);
+          return;
+        }
         out.robot = goal_command();  // re-sent every tick as a keep-alive, same goal_id
         return;
       }
@@ -839,7 +901,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         out.robot = twist_command(hold);  // never advance blind
         return;
       }
-      ApproachInput in{now, tool(), camera(), current_->estimate, fresh_pixel(now), cfg_.ir_approach_speed};
+      const bool sees = ir_->validity == ir_range_t::VALID;
+      ApproachInput in{now, tool(), camera(), current_->estimate, fresh_pixel(now), ir_forward_speed(sees)};
       out.robot = twist_command(approach_->update(in).twist);
       return;
     }

@@ -111,6 +111,15 @@ class HarvestMachine {
   void enter(State s, rt::Micros now, MachineOutput& out);
   void start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out);
   bool goal_reached() const;
+  // A pose-goal motion that gets no closer to its goal for timeouts.stall
+  // (the arm is blocked, e.g. at a joint limit) is not waited out.
+  bool goal_stalled(rt::Micros now);
+  // A pose-goal motion that stalled or timed out: the fruit is unreachable if
+  // the arm cannot turn to it, a blocked retreat returns home directly, any
+  // other blocked motion is a fault.
+  void motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out);
+  // Forward speed under IR guidance for the range still to go (IR if it sees the fruit, else the estimate).
+  double ir_forward_speed(bool ir_sees_fruit) const;
   Eigen::Isometry3d inside_workspace(const Eigen::Isometry3d& goal) const;
   bool at_home() const;
   // START: SELECT from the home pose, else retreat and return home first.
@@ -173,6 +182,9 @@ class HarvestMachine {
 
   Eigen::Isometry3d goal_ = Eigen::Isometry3d::Identity();
   int64_t goal_id_ = 0;
+  double goal_best_position_ = 0.0;  // closest the tool has come to the goal [m] ...
+  double goal_best_rotation_ = 0.0;  // ... and its orientation [rad]
+  rt::Micros goal_progress_at_ = 0;  // when it last got measurably closer
   int ir_attempt_ = 0;
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
 };

@@ -85,6 +85,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.max_angular_accel = n.get("max_angular_accel", c.max_angular_accel, pos);
   c.ir_switch_distance = n.get("ir_switch_distance", c.ir_switch_distance, pos);
   c.ir_approach_speed = n.get("ir_approach_speed", c.ir_approach_speed, pos);
+  c.ir_slowdown_gain = n.get("ir_slowdown_gain", c.ir_slowdown_gain, nonneg);
+  c.ir_min_speed = n.get("ir_min_speed", c.ir_min_speed, pos);
   c.ir_grasp_range = n.get("ir_grasp_range", c.ir_grasp_range, pos);
   c.ir_max_travel = n.get("ir_max_travel", c.ir_max_travel, pos);
   c.ir_attempts = n.get("ir_attempts", c.ir_attempts, {1, 10});
@@ -100,6 +102,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.reused_id_distance = n.get("reused_id_distance", c.reused_id_distance, nonneg);
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
+  if (c.ir_min_speed > c.ir_approach_speed) n.fail("ir_min_speed", "a speed no greater than ir_approach_speed");
 
   const config::Node ws = n.child("workspace");
   c.workspace.min = vec3(ws, "min", c.workspace.min);
@@ -110,8 +113,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   if (c.workspace.min_reach >= c.workspace.max_reach) ws.fail("max_reach", "a value greater than min_reach");
 
   // Home: the thesis experiment I start pose (table 6-5), gripper axis along base +y.
-  c.home_pose = pose(n.child("home_pose"), make_pose(-0.655, 0.785, -0.251, M_SQRT1_2, -M_SQRT1_2, 0, 0));
-  c.drop_pose = pose(n.child("drop_pose"), make_pose(-0.7, 0.6, -0.6, 0, 1, 0, 0));
+  c.home_pose = pose(n.child("home_pose"), make_pose(-0.655, 0.785, -0.251, 0.5, -0.5, -0.5, -0.5));
+  c.drop_pose = pose(n.child("drop_pose"), make_pose(-0.5, 0.72, -0.25, 0.5, -0.5, -0.5, -0.5));
   if (!c.workspace.contains(c.home_pose.translation())) n.fail("home_pose", "a position inside the workspace");
   if (!c.workspace.contains(c.drop_pose.translation())) n.fail("drop_pose", "a position inside the workspace");
 
@@ -126,6 +129,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   Timeouts& to = c.timeouts;
   for (auto [key, value] : {std::pair{"select", &to.select},
                             {"motion", &to.motion},
+                            {"stall", &to.stall},
                             {"acquire", &to.acquire},
                             {"lost", &to.lost},
                             {"reacquire", &to.reacquire},

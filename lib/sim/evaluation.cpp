@@ -4,13 +4,16 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "harvest/targets_t.hpp"
 #include "runtime/channels.hpp"
+#include "runtime/json.hpp"
 #include "sim/sim_node.hpp"
 
 namespace harvest::sim {
@@ -27,10 +30,14 @@ Placement placement(const pose_t& p) {
 
 const char* outcome_name(int8_t state) {
   switch (state) {
-    case sim_fruit_truth_t::ON_TREE: return "on tree";
-    case sim_fruit_truth_t::HELD: return "held";
-    case sim_fruit_truth_t::PICKED: return "picked";
-    case sim_fruit_truth_t::KNOCKED: return "knocked off";
+    case sim_fruit_truth_t::ON_TREE:
+      return "on tree";
+    case sim_fruit_truth_t::HELD:
+      return "held";
+    case sim_fruit_truth_t::PICKED:
+      return "picked";
+    case sim_fruit_truth_t::KNOCKED:
+      return "knocked off";
   }
   return "unknown";
 }
@@ -80,26 +87,25 @@ std::string number(double v, int decimals = 3) {
   return buf;
 }
 
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) out += c;
-  }
-  return out + "\"";
-}
-
 }  // namespace
 
 void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenario, int run, Evaluation& e) {
   std::vector<sim_truth_t> truths;
   std::optional<harvest_status_t> last_status;
   std::vector<targets_t> targets;
+  // Every controller outcome with the log time it was first reported.
+  std::vector<std::pair<int64_t, fruit_outcome_t>> reported;
+  std::set<std::tuple<int32_t, int8_t, float, std::string>> seen;
   for (const auto& rec : log) {
     if (rec.channel == kSimTruthChannel) {
       if (auto m = rt::decode<sim_truth_t>(rec.data)) truths.push_back(std::move(*m));
     } else if (rec.channel == channels::kHarvestStatus) {
-      if (auto m = rt::decode<harvest_status_t>(rec.data)) last_status = std::move(*m);
+      if (auto m = rt::decode<harvest_status_t>(rec.data)) {
+        for (const auto& o : m->outcomes)
+          if (seen.emplace(o.fruit_id, o.outcome, o.cycle_time_s, o.detail).second)
+            reported.emplace_back(rec.timestamp, o);
+        last_status = std::move(*m);
+      }
     } else if (rec.channel == channels::kTargets) {
       if (auto m = rt::decode<targets_t>(rec.data)) targets.push_back(std::move(*m));
     }
@@ -128,15 +134,32 @@ void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenari
     }
     results.push_back(r);
   }
-  // Cycle times: the controller's own, matched by where the tool was when it
-  // decided; otherwise the time since the previous decision (or the start).
-  if (last_status) {
-    for (const auto& o : last_status->outcomes) {
-      const int i = nearest_fruit(first, vec(o.final_tool_position));
-      if (i < 0) continue;
-      results[static_cast<std::size_t>(i)].controller_fruit_id = o.fruit_id;
-      if (o.outcome == fruit_outcome_t::PICKED) results[static_cast<std::size_t>(i)].cycle_time_s = o.cycle_time_s;
+  // Cycle times: the controller's own. A pick it reports is the fruit the
+  // simulator saw detached last before the report (the report comes at the
+  // release, after the drop; neither the tool position then nor the
+  // controller's estimate of the fruit is a reliable guide); other outcomes
+  // are matched by the controller's estimate. A picked fruit without a
+  // controller report gets the time since the previous decision (or the start).
+  std::vector<bool> matched(last.fruits.size(), false);
+  for (const auto& [time, o] : reported) {
+    int i = -1;
+    if (o.outcome == fruit_outcome_t::PICKED) {
+      int64_t latest = -1;
+      for (std::size_t j = 0; j < last.fruits.size(); ++j) {
+        const auto& f = last.fruits[j];
+        if (f.state == sim_fruit_truth_t::PICKED && !matched[j] && f.outcome_utime <= time &&
+            f.outcome_utime > latest) {
+          latest = f.outcome_utime;
+          i = static_cast<int>(j);
+        }
+      }
+      if (i >= 0) matched[static_cast<std::size_t>(i)] = true;
+    } else {
+      i = nearest_fruit(first, vec(o.target_base));
     }
+    if (i < 0) continue;
+    results[static_cast<std::size_t>(i)].controller_fruit_id = o.fruit_id;
+    if (o.outcome == fruit_outcome_t::PICKED) results[static_cast<std::size_t>(i)].cycle_time_s = o.cycle_time_s;
   }
   std::vector<std::pair<int64_t, std::size_t>> decided;
   for (std::size_t i = 0; i < last.fruits.size(); ++i)
@@ -188,7 +211,9 @@ void finish(Evaluation& e) {
     for (double x : v) s += x;
     return v.empty() ? std::nan("") : s / static_cast<double>(v.size());
   };
-  auto max = [](const std::vector<double>& v) { return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end()); };
+  auto max = [](const std::vector<double>& v) {
+    return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
+  };
   e.success_rate = e.reachable > 0 ? static_cast<double>(e.picked) / e.reachable : 0.0;
   e.mean_cycle_s = mean(cycles);
   e.max_cycle_s = max(cycles);
@@ -211,10 +236,11 @@ void finish(Evaluation& e) {
 
 std::string to_json(const Evaluation& e) {
   std::ostringstream o;
-  o << "{\n  \"scenario\": " << quoted(e.scenario) << ",\n  \"runs\": " << e.runs
+  o << "{\n  \"scenario\": " << rt::json_quoted(e.scenario) << ",\n  \"runs\": " << e.runs
     << ",\n  \"fruit_total\": " << e.fruit_total << ",\n  \"reachable\": " << e.reachable
     << ",\n  \"picked\": " << e.picked << ",\n  \"success_rate\": " << number(e.success_rate, 4)
-    << ",\n  \"mean_cycle_time_s\": " << number(e.mean_cycle_s) << ",\n  \"max_cycle_time_s\": " << number(e.max_cycle_s)
+    << ",\n  \"mean_cycle_time_s\": " << number(e.mean_cycle_s)
+    << ",\n  \"max_cycle_time_s\": " << number(e.max_cycle_s)
     << ",\n  \"mean_final_error_mm\": " << number(e.mean_error_mm, 2)
     << ",\n  \"max_final_error_mm\": " << number(e.max_error_mm, 2) << ",\n  \"final_position_std_mm\": ["
     << number(e.final_tool_std_mm[0], 2) << ", " << number(e.final_tool_std_mm[1], 2) << ", "
@@ -225,7 +251,7 @@ std::string to_json(const Evaluation& e) {
     o << (i ? "," : "") << "\n    {\"run\": " << f.run << ", \"sim_id\": " << f.sim_id
       << ", \"controller_fruit_id\": " << f.controller_fruit_id << ", \"counted\": " << (f.counted ? "true" : "false")
       << ", \"reachable\": " << (f.reachable ? "true" : "false")
-      << ", \"visible_fraction\": " << number(f.visible_fraction, 2) << ", \"outcome\": " << quoted(f.outcome)
+      << ", \"visible_fraction\": " << number(f.visible_fraction, 2) << ", \"outcome\": " << rt::json_quoted(f.outcome)
       << ", \"cycle_time_s\": " << (f.cycle_time_s ? number(*f.cycle_time_s) : "null")
       << ", \"final_error_mm\": " << (f.final_offset ? number(f.final_offset->norm() * 1e3, 2) : "null")
       << ", \"true_position_mm\": [" << number(f.true_position.x() * 1e3, 1) << ", "
@@ -244,7 +270,7 @@ std::string to_json(const Evaluation& e) {
   o << ",\n";
   bins("depth_error_hand", e.depth_hand);
   o << ",\n  \"warnings\": [";
-  for (std::size_t i = 0; i < e.warnings.size(); ++i) o << (i ? ", " : "") << quoted(e.warnings[i]);
+  for (std::size_t i = 0; i < e.warnings.size(); ++i) o << (i ? ", " : "") << rt::json_quoted(e.warnings[i]);
   o << "]\n}\n";
   return o.str();
 }

@@ -299,6 +299,31 @@ TEST(ClosedLoop, FruitBrieflyHiddenIsReacquiredAndPicked) {
   expect_within_limits(loop);
 }
 
+// Under IR guidance the arm moves fast while the fruit is far and slows in
+// proportion to the range still to go, arriving at the grasp range slowly.
+TEST(ClosedLoop, IrGuidedApproachSlowsDownNearTheFruit) {
+  WorldSpec spec = experiment_one();
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 30.0)) << loop.ctrl.machine().summary();
+  const Eigen::Vector3d from = loop.arm.tool().translation();
+  const double t0 = loop.t();
+  double last = 0.0;
+  while (loop.ctrl.machine().state() == State::kIrApproach && loop.t() < 60.0) {
+    const auto& c = loop.commands().back().second;
+    if (c.type == robot_command_t::TYPE_TWIST)
+      last = Eigen::Vector3d(c.twist.linear[0], c.twist.linear[1], c.twist.linear[2])
+                 .dot(loop.arm.tool().rotation().col(2));
+    loop.at(loop.t() + 0.01);
+  }
+  ASSERT_EQ(loop.ctrl.machine().state(), State::kGrasp);
+  // A constant ir_min_speed approach would average that speed; this one is
+  // well above it on average and arrives at about it.
+  const double mean = (loop.arm.tool().translation() - from).norm() / (loop.t() - t0);
+  EXPECT_GT(mean, 3.0 * loop.cfg.ir_min_speed) << mean;
+  EXPECT_LT(last, loop.cfg.ir_min_speed + 0.02) << last;
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
@@ -648,14 +673,47 @@ TEST(ClosedLoop, GripperThatNeverReportsIsAFaultAndStops) {
   expect_fault_stops(loop, "gripper did not report holding or closed in time");
 }
 
-TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
+// The arm cannot turn to the fruit (blocked at its joint limits): the fruit
+// is given up as unreachable without waiting for the motion timeout, the arm
+// returns home and the harvest goes on (here: nothing left, DONE).
+TEST(ClosedLoop, OrientThatStallsMakesTheFruitUnreachable) {
   WorldSpec spec = experiment_one();
-  spec.arm_ignores_goals = true;
+  spec.arm_ignores_goals_after_s = 0.0;
   ServoConfig cfg = test_config();
-  cfg.timeouts.motion = 2.0;
+  cfg.timeouts.stall = 1.0;
   Loop loop(spec, cfg);
   loop.start();
-  expect_fault_stops(loop, "motion did not complete in ORIENT");
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0)) << loop.ctrl.machine().summary();
+  ASSERT_TRUE(loop.outcome(1));
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::UNREACHABLE);
+  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not turn to it (stalled)");
+  EXPECT_LT(loop.outcome(1)->cycle_time_s, 2.0);  // the stall, not the 20 s motion timeout
+  expect_motion_stopped(loop);
+}
+
+TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
+  // Stalls are not detected (stall longer than the motion timeout): the
+  // timeout is the last resort.
+  WorldSpec spec = experiment_one();
+  spec.arm_ignores_goals_after_s = 0.0;
+  ServoConfig cfg = test_config();
+  cfg.timeouts.motion = 2.0;
+  cfg.timeouts.stall = 5.0;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not turn to it (did not complete)");
+}
+
+// Once the fruit is held, a pose goal the arm does not carry out is a fault:
+// the controller stops the arm and latches, it does not wait 20 s.
+TEST(ClosedLoop, DetachThatStallsIsAFaultAndStops) {
+  WorldSpec spec = experiment_one();
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
+  loop.spec.arm_ignores_goals_after_s = 0.0;
+  expect_fault_stops(loop, "motion stalled in DETACH");
 }
 
 // A start away from home (here next to the fruit after an emergency stop)

@@ -75,7 +75,8 @@ void ArmDouble::step() {
   if (valid && cmd_->type == robot_command_t::TYPE_TWIST) {
     v = Eigen::Vector3d(cmd_->twist.linear[0], cmd_->twist.linear[1], cmd_->twist.linear[2]);
     w = Eigen::Vector3d(cmd_->twist.angular[0], cmd_->twist.angular[1], cmd_->twist.angular[2]);
-  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL && !spec_.arm_ignores_goals) {
+  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL &&
+             !(spec_.arm_ignores_goals_after_s && t >= *spec_.arm_ignores_goals_after_s)) {
     const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
     const Eigen::Vector3d dp = goal.translation() - tool_.translation();
     v = clamp_norm(dp / dt, cmd_->max_linear_speed);
@@ -289,7 +290,8 @@ void WorldDouble::publish_gripper() {
 
 Eigen::Isometry3d thesis_start_pose() {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();  // z along base +y
+  // z along base +y, image y down (base +x): the controller's home orientation.
+  t.linear() = Eigen::Quaterniond(0.5, -0.5, -0.5, -0.5).toRotationMatrix();
   t.translation() = Eigen::Vector3d(-0.655, 0.785, -0.251);
   return t;
 }

@@ -84,14 +84,14 @@ struct WorldSpec {
   double pixel_noise = 0.5;                               // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
-  std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
-  std::optional<double> hide_hand_for_s;    // ... only for this long
-  bool ir_dead = false;                     // IR always reports TOO_FAR
-  bool gripper_misses = false;              // closes on nothing
-  bool gripper_stuck = false;               // never finishes closing (no HOLDING/CLOSED report)
-  bool arm_ignores_goals = false;           // pose goals are acknowledged but never executed
-  bool fruit_slips = false;                 // a held fruit falls out of the gripper 0.2 s after the grasp
-  bool fixed_camera_silent = false;         // no fixed-camera TARGETS at all
+  std::optional<double> hide_hand_after_s;          // fruit disappears from the hand camera for good
+  std::optional<double> hide_hand_for_s;            // ... only for this long
+  bool ir_dead = false;                             // IR always reports TOO_FAR
+  bool gripper_misses = false;                      // closes on nothing
+  bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
+  std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
+  bool fruit_slips = false;                         // a held fruit falls out of the gripper 0.2 s after the grasp
+  bool fixed_camera_silent = false;                 // no fixed-camera TARGETS at all
   bool fixed_ids_follow_order =
       false;  // the k-th fruit still on the tree has the k-th id (a picked fruit's id moves on)
   std::optional<double> fixed_ids_change_after_s;  // the fixed camera's tracker renumbers every fruit (id + 1000)
