@@ -317,6 +317,13 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       note_ = "retreat " + why + ", returning home directly";
       start_goal(cfg_.home_pose, State::kReturn, now, out);
       break;
+    case State::kDetach:
+      // The pull got part of the way (often far enough to detach); the drop
+      // leaves along another path, and the gripper state says whether the
+      // fruit is still held.
+      note_ = "detach " + why + ", going on to the drop";
+      start_goal(cfg_.drop_pose, State::kDrop, now, out);
+      break;
     default:
       fault("motion " + why + " in " + state_name(state_), now, out);
       break;

@@ -705,15 +705,17 @@ TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
   EXPECT_EQ(loop.outcome(1)->detail, "the arm could not turn to it (did not complete)");
 }
 
-// Once the fruit is held, a pose goal the arm does not carry out is a fault:
-// the controller stops the arm and latches, it does not wait 20 s.
-TEST(ClosedLoop, DetachThatStallsIsAFaultAndStops) {
+// A stalled pull goes on to the drop; once the fruit is held, a drop the arm
+// does not carry out is a fault: the controller stops the arm and latches,
+// it does not wait 20 s.
+TEST(ClosedLoop, DetachThatStallsGoesOnToTheDropAndAStalledDropIsAFault) {
   WorldSpec spec = experiment_one();
   Loop loop(spec);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
   loop.spec.arm_ignores_goals_after_s = 0.0;
-  expect_fault_stops(loop, "motion stalled in DETACH");
+  ASSERT_TRUE(loop.run_until_state(State::kDrop, 10.0)) << loop.ctrl.machine().summary();
+  expect_fault_stops(loop, "motion stalled in DROP");
 }
 
 // A start away from home (here next to the fruit after an emergency stop)
