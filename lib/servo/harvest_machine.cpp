@@ -294,11 +294,11 @@ bool HarvestMachine::goal_stalled(rt::Micros now) {
   const double position = (t.translation() - goal_.translation()).norm();
   const double rotation = rotation_distance(t.rotation(), goal_.rotation());
   bool progress = false;
-  if (position < goal_best_position_ - kPositionStep || !std::isfinite(goal_best_position_)) {
+  if (position < goal_best_position_ - kPositionStep) {  // always true against the initial infinity
     goal_best_position_ = position;
     progress = true;
   }
-  if (rotation < goal_best_rotation_ - kRotationStep || !std::isfinite(goal_best_rotation_)) {
+  if (rotation < goal_best_rotation_ - kRotationStep) {
     goal_best_rotation_ = rotation;
     progress = true;
   }
