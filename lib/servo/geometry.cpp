@@ -1,28 +1,10 @@
 #include "servo/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace harvest::servo {
-
-Eigen::Isometry3d to_isometry(const pose_t& p) {
-  Eigen::Quaterniond q(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
-  if (q.norm() < 1e-9) q = Eigen::Quaterniond::Identity();  // an all-zero quaternion means "no orientation"
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = q.normalized().toRotationMatrix();
-  t.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
-  return t;
-}
-
-pose_t to_pose(const Eigen::Isometry3d& t) {
-  pose_t p{};
-  const Eigen::Quaterniond q(t.rotation());
-  for (int i = 0; i < 3; ++i) p.position[i] = t.translation()[i];
-  p.orientation[0] = q.w();
-  p.orientation[1] = q.x();
-  p.orientation[2] = q.y();
-  p.orientation[3] = q.z();
-  return p;
-}
 
 twist_t to_twist(const Eigen::Vector3d& linear, const Eigen::Vector3d& angular) {
   twist_t t{};
@@ -54,7 +36,7 @@ Eigen::Matrix3d aim_rotation(const Eigen::Isometry3d& tool, const Eigen::Vector3
   const Eigen::Vector3d m = rf.transpose() * (target_base - tool.translation());
   const double alpha = std::atan2(m.y(), m.z());  // eq. 6-19
   const Eigen::Matrix3d rx = thesis_rx(alpha);
-  const Eigen::Vector3d m1 = rx.transpose() * m;  // target after the x rotation
+  const Eigen::Vector3d m1 = rx.transpose() * m;    // target after the x rotation
   const double beta = -std::atan2(m1.x(), m1.z());  // eq. 6-20
   if (angles != nullptr) *angles = {alpha, beta};
   return rf * rx * thesis_ry(beta);  // eq. 6-22 applied in sequence
@@ -91,6 +73,36 @@ bool project_point(const CameraIntrinsics& cam, const Eigen::Vector3d& p, Eigen:
   const double yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
   pixel = {cam.fx * xd + cam.skew * yd + cam.u0, cam.fy * yd + cam.v0};
   return true;
+}
+
+std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const Eigen::Isometry3d& camera,
+                                             const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  // 64 samples: at most a few pixels of chord error for a segment across the
+  // whole image. Beyond 0.8 in normalised coordinates (about 39 deg, well
+  // outside the image) the distortion polynomial is no longer a lens model.
+  constexpr int kSamples = 64;
+  constexpr double kMaxNormalised = 0.8;
+  std::vector<Eigen::Vector2d> out;
+  const Eigen::Isometry3d to_camera = camera.inverse();
+  for (int i = 0; i <= kSamples; ++i) {
+    const Eigen::Vector3d p = to_camera * (a + (b - a) * (static_cast<double>(i) / kSamples));
+    if (p.z() <= 0.01 || std::abs(p.x()) > kMaxNormalised * p.z() || std::abs(p.y()) > kMaxNormalised * p.z()) continue;
+    Eigen::Vector2d px;
+    if (project_point(cam, p, px)) out.push_back(px);
+  }
+  return out;
+}
+
+double distance_to_polyline(const std::vector<Eigen::Vector2d>& polyline, const Eigen::Vector2d& pixel) {
+  if (polyline.empty()) return std::numeric_limits<double>::infinity();
+  double best = (polyline.front() - pixel).norm();
+  for (std::size_t i = 1; i < polyline.size(); ++i) {
+    const Eigen::Vector2d d = polyline[i] - polyline[i - 1];
+    const double len2 = d.squaredNorm();
+    const double s = len2 > 0 ? std::clamp((pixel - polyline[i - 1]).dot(d) / len2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (polyline[i - 1] + s * d - pixel).norm());
+  }
+  return best;
 }
 
 }  // namespace harvest::servo

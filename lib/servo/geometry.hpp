@@ -4,15 +4,17 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <vector>
 
+#include "geometry/pose_msg.hpp"
 #include "harvest/pose_t.hpp"
 #include "harvest/twist_t.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
 
-Eigen::Isometry3d to_isometry(const pose_t& p);
-pose_t to_pose(const Eigen::Isometry3d& t);
+using geometry::to_isometry;
+using geometry::to_pose;
 twist_t to_twist(const Eigen::Vector3d& linear, const Eigen::Vector3d& angular);
 
 // Rotation angles of eq. 6-19 and 6-20 for a target at `target_tool` in the
@@ -40,5 +42,14 @@ Eigen::Vector2d undistort_pixel(const CameraIntrinsics& cam, double u, double v)
 // Pixel of a point in the camera frame (z forward), distortion applied.
 // Returns false if the point is not in front of the camera.
 bool project_point(const CameraIntrinsics& cam, const Eigen::Vector3d& p_camera, Eigen::Vector2d& pixel);
+
+// Image of the 3D segment a..b (base frame) in a camera at `camera` (optical
+// frame in the base frame), as a polyline: the segment is sampled because
+// distortion bends its image. Parts behind the camera or far outside its
+// field of view are left out; empty if nothing of it is in view.
+std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const Eigen::Isometry3d& camera,
+                                             const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+// Distance [px] from a pixel to a polyline (infinity if it is empty).
+double distance_to_polyline(const std::vector<Eigen::Vector2d>& polyline, const Eigen::Vector2d& pixel);
 
 }  // namespace harvest::servo

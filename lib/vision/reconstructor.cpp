@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "config/config.hpp"
+#include "geometry/pose_msg.hpp"
 
 namespace harvest::vision {
 
@@ -50,15 +51,6 @@ void fill_pose_estimate(target_t& t, const PointEstimate& cam, const PointEstima
 
 }  // namespace
 
-Eigen::Isometry3d to_isometry(const pose_t& pose) {
-  Eigen::Quaterniond q(pose.orientation[0], pose.orientation[1], pose.orientation[2], pose.orientation[3]);
-  if (q.norm() < 1e-9) q = Eigen::Quaterniond::Identity();
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = q.normalized().toRotationMatrix();
-  t.translation() = Eigen::Vector3d(pose.position[0], pose.position[1], pose.position[2]);
-  return t;
-}
-
 ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
   ReconstructorConfig c;
   const config::Node fixed = n.child("camera_fixed");
@@ -91,7 +83,7 @@ Reconstructor::Reconstructor(ReconstructorConfig config)
       associator_(config_.association_gate_chi2) {}
 
 void Reconstructor::on_robot_state(const robot_state_t& state) {
-  tool_poses_.add(state.header.utime, to_isometry(state.tool_pose));
+  tool_poses_.add(state.header.utime, geometry::to_isometry(state.tool_pose));
 }
 
 targets_t Reconstructor::make_targets(const fruit_detections_t& d, const CameraModel& cam,
@@ -103,6 +95,10 @@ targets_t Reconstructor::make_targets(const fruit_detections_t& d, const CameraM
   out.header.source_seq = d.header.seq;
   out.source_camera = camera;
   out.selected_fruit_id = -1;
+  // Only the centre: the thesis's fixed-camera rotation (eq. 4-1) is a
+  // reflection, which no quaternion could carry.
+  out.camera_known = true;
+  for (int i = 0; i < 3; ++i) out.camera_position_base[i] = cam_to_base.translation()[i];
   for (const fruit_t& f : d.fruits) {
     const PointEstimate in_cam =
         reconstruct_in_camera(cam, f.u_px, f.v_px, f.diameter_px, config_.fruit, config_.noise);

@@ -80,6 +80,4 @@ class Reconstructor {
   std::string last_error_;
 };
 
-Eigen::Isometry3d to_isometry(const pose_t& pose);
-
 }  // namespace harvest::vision

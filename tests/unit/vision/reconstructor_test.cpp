@@ -206,6 +206,29 @@ TEST_F(ExperimentII, FixedCameraFruitIsKeptInTheHandView) {
   EXPECT_EQ(t2->selected_fruit_id, 0);
 }
 
+// TARGETS name the camera's pose, so a consumer can form each target's line
+// of sight: the fixed camera's calibrated extrinsic, the camera-in-hand at
+// the image time; every target lies on the ray from it through the pixel.
+TEST_F(ExperimentII, TargetsCarryTheirCamerasPose) {
+  Reconstructor r(config_);
+  const auto fixed =
+      r.on_fixed(detections("fixed", 1'000'000, {detection(config_.fixed_camera, fruit1_cam_, 0.07)}, 0));
+  ASSERT_TRUE(fixed);
+  ASSERT_TRUE(fixed->camera_known);
+  const Eigen::Vector3d c(fixed->camera_position_base);
+  EXPECT_TRUE(c.isApprox(config_.fixed_extrinsic.translation(), 1e-12));
+  const Eigen::Vector3d p(fixed->targets[0].position_base);
+  const Eigen::Vector3d in_cam = config_.fixed_extrinsic.linear().inverse() * (p - c);
+  EXPECT_NEAR(in_cam.normalized().dot(fruit1_cam_.normalized()), 1.0, 1e-9);  // on the pixel's ray
+  r.on_robot_state(state_at(1'980'000, hand_));
+  r.on_robot_state(state_at(2'020'000, hand_));
+  const Eigen::Vector3d f1 = truth_fixed_ * fruit1_cam_;
+  const auto hand = r.on_hand(detections("hand", 2'000'000, {detection(config_.hand_camera, in_hand(f1), 0.07)}, 0));
+  ASSERT_TRUE(hand) << r.last_error();
+  ASSERT_TRUE(hand->camera_known);
+  EXPECT_TRUE(Eigen::Vector3d(hand->camera_position_base).isApprox((hand_ * config_.hand_eye).translation(), 1e-9));
+}
+
 TEST_F(ExperimentII, OtherFruitAloneDoesNotTakeTheChosenId) {
   Reconstructor r(config_);
   r.on_fixed(detections("fixed", 1'000'000, {detection(config_.fixed_camera, fruit1_cam_, true_diameter_)}, 0));
