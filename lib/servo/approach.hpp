@@ -6,7 +6,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <memory>
 #include <optional>
 #include <string>

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 #include "servo/geometry.hpp"
 
@@ -318,9 +319,10 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       start_goal(cfg_.home_pose, State::kReturn, now, out);
       break;
     case State::kDetach:
-      // The pull got part of the way (often far enough to detach); the drop
-      // leaves along another path, and the gripper state says whether the
-      // fruit is still held.
+      // The pull got part of the way (often far enough to detach): the drop
+      // leaves along another path and finishes pulling it off (even when the
+      // fruit is released at the detach otherwise), and the gripper state
+      // says whether the fruit is still held.
       note_ = "detach " + why + ", going on to the drop";
       start_goal(cfg_.drop_pose, State::kDrop, now, out);
       break;
@@ -428,9 +430,69 @@ void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
   }
 }
 
+bool HarvestMachine::pickable(const Eigen::Vector3d& p) const {
+  // Every fruit is aimed at from home (eq. 6-19..6-22): a target beside or
+  // behind the gripper there cannot be turned to and seen.
+  const Eigen::Vector3d axis = cfg_.home_pose.linear().col(2);
+  return cfg_.workspace.contains(p) && (p - cfg_.home_pose.translation()).dot(axis) >= cfg_.min_ahead_of_home;
+}
+
+std::optional<HarvestMachine::SightLine> HarvestMachine::sight_line(const targets_t& view, const target_t& t) const {
+  if (!view.camera_known) return std::nullopt;  // a view from before the field existed
+  SightLine line;
+  line.origin = vec(view.camera_position_base);
+  const Eigen::Vector3d d = vec(t.position_base) - line.origin;
+  if (d.norm() < 1e-6) return std::nullopt;
+  line.direction = d.normalized();
+  // Scan in 5 mm steps out to 3 m (beyond any workspace): the pickable set
+  // is a box cut by a shell and a half-space, so the first and the last
+  // pickable step bound it along a straight line.
+  constexpr double kStep = 0.005, kFar = 3.0;
+  bool found = false;
+  for (double s = 0.0; s <= kFar; s += kStep) {
+    if (!pickable(line.at(s))) continue;
+    if (!found) line.near = s;
+    line.far = s;
+    found = true;
+  }
+  if (!found) return std::nullopt;
+  return line;
+}
+
+Eigen::Vector3d HarvestMachine::sight_aim(const SightLine& line, double s_start, const Eigen::Vector3d& from) const {
+  // The hand camera's narrower half field of view, less ~4 deg for the
+  // fruit's own size: the whole stretch stays in the image.
+  const CameraIntrinsics& k = cfg_.hand_camera;
+  const double half = std::min(std::atan2(k.u0, k.fx), std::atan2(k.v0, k.fy));
+  const double span = 2.0 * std::max(0.05, half - 0.07);
+  const double s_end = std::abs(s_start - line.near) < std::abs(s_start - line.far) ? line.far : line.near;
+  auto dir = [&](double s) { return (line.at(s) - from).normalized(); };
+  const Eigen::Vector3d u0 = dir(s_start);
+  // Seen from a point, the direction to a point moving along a line turns
+  // monotonically away from where it started: walk until the span is used up.
+  constexpr int kSteps = 200;
+  double s_last = s_start;
+  for (int i = 1; i <= kSteps; ++i) {
+    const double s = s_start + (s_end - s_start) * i / kSteps;
+    if (std::acos(std::clamp(u0.dot(dir(s)), -1.0, 1.0)) > span) break;
+    s_last = s;
+  }
+  const Eigen::Vector3d middle = (u0 + dir(s_last)).normalized();
+  double best_s = s_start, best = -2.0;
+  for (int i = 0; i <= kSteps; ++i) {
+    const double s = s_start + (s_last - s_start) * i / kSteps;
+    if (const double c = middle.dot(dir(s)); c > best) {
+      best = c;
+      best_s = s;
+    }
+  }
+  return line.at(best_s);
+}
+
 void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   const targets_t& view = *fixed_;
   const target_t* best = nullptr;
+  std::optional<Fruit> chosen;
   for (const auto& t : view.targets) {
     const Eigen::Vector3d p = vec(t.position_base);
     if (finished_.count(t.fruit_id)) {
@@ -448,32 +510,45 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
       finished_at_[t.fruit_id] = p;
       continue;
     }
-    if (!cfg_.workspace.contains(p)) {
-      attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
-      record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "outside the reachable workspace", now, now, out);
-      continue;
+    Fruit f{t.fruit_id, p, now, p, sight_line(view, t), false};
+    if (!pickable(p)) {
+      // The fixed camera's depth comes from the fruit's apparent size, its
+      // direction from the calibration: a piece of a fruit looks small and
+      // far, fruit side by side look large and near. Aim at the part of the
+      // line of sight where a fruit can be picked, nearest the estimate, and
+      // let the camera-in-hand measure it (eq. 6-15); only a line of sight
+      // that never gets there is unreachable.
+      if (!f.sight) {
+        attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
+        const char* why = view.camera_known            ? "out of reach along its whole line of sight"
+                          : cfg_.workspace.contains(p) ? "not ahead of the gripper at home"
+                                                       : "outside the reachable workspace";
+        record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, why, now, now, out);
+        continue;
+      }
+      const double s = std::clamp((p - f.sight->origin).dot(f.sight->direction), f.sight->near, f.sight->far);
+      f.estimate = sight_aim(*f.sight, s, tool().translation());
+      f.depth_doubtful = true;
     }
-    // Every fruit is aimed at from home (eq. 6-19..6-22): a target beside or
-    // behind the gripper there (in the canopy, a cluster of fruit seen as one
-    // large, hence too near, fruit) cannot be turned to and seen.
-    const Eigen::Vector3d axis = cfg_.home_pose.linear().col(2);
-    if ((p - cfg_.home_pose.translation()).dot(axis) < cfg_.min_ahead_of_home) {
-      attempts_[t.fruit_id] = cfg_.max_attempts_per_fruit;
-      record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, "not ahead of the gripper at home", now, now, out);
-      continue;
+    // Fruit whose fixed-camera depth is plausible first, then the doubtful ones.
+    if (best == nullptr || std::make_tuple(f.depth_doubtful, t.cost, t.fruit_id) <
+                               std::make_tuple(chosen->depth_doubtful, best->cost, best->fruit_id)) {
+      best = &t;
+      chosen = f;
     }
-    if (best == nullptr || t.cost < best->cost || (t.cost == best->cost && t.fruit_id < best->fruit_id)) best = &t;
   }
   if (best == nullptr) {
     note_ = "no reachable fruit left";
     enter(State::kDone, now, out);
     return;
   }
-  current_ = Fruit{best->fruit_id, vec(best->position_base), now, vec(best->position_base)};
+  current_ = chosen;
   ++attempts_[best->fruit_id];
   approach_->reset();
   pixel_.reset();
   hand_target_px_.reset();
+  if (current_->depth_doubtful)
+    note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
   // Point the gripper axis at the fruit without moving the tool point (eq. 6-19..6-22).
   Eigen::Isometry3d goal = tool();
   goal.linear() = aim_rotation(tool(), current_->estimate);
@@ -518,9 +593,9 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
 }
 
 double HarvestMachine::ir_forward_speed(bool ir_sees_fruit) const {
-  // Fast while far, then proportional to the range still to go, so the arm
-  // reaches the grasp range slowly: the stop overshoots by v^2 / 2a plus the
-  // travel during one IR period. Before the IR sees the fruit, the hand
+  // Fast while far, then braking at a constant rate, so the arm reaches the
+  // grasp range slowly: the stop overshoots by v^2 / 2a plus the travel
+  // during one IR period. Before the IR sees the fruit, the hand
   // camera's estimate says how far it is (the IR range is from the palm, the
   // estimate to the fruit centre: both end at the grasp point within a few cm).
   double to_go;
@@ -530,7 +605,10 @@ double HarvestMachine::ir_forward_speed(bool ir_sees_fruit) const {
     const Eigen::Isometry3d t = tool();
     to_go = (current_->estimate - t.translation()).dot(t.rotation().col(2));
   }
-  return std::clamp(cfg_.ir_slowdown_gain * to_go, cfg_.ir_min_speed, cfg_.ir_approach_speed);
+  // The speed from which braking at ir_braking_decel stops at the grasp
+  // range: the shortest approach that never brakes harder than that.
+  return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, to_go)), cfg_.ir_min_speed,
+                    cfg_.ir_approach_speed);
 }
 
 // ---------------------------------------------------------------- inputs
@@ -544,13 +622,23 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     out.status_changed = first;
     return out;
   }
+  // The camera-in-hand re-estimate replaces the fixed camera's (eq. 6-15).
+  // It is the target made from the very detection we follow (same image,
+  // same pixel), whatever id the reconstructor matched it to in 3D: its
+  // match against a fixed-camera estimate with a wrong depth would fail.
   if (!current_) return out;
   for (const auto& t : msg.targets) {
     if (t.fruit_id != current_->id) continue;
-    // The camera-in-hand re-estimate replaces the fixed camera's (eq. 6-15).
-    current_->estimate = vec(t.position_base);
-    hand_target_px_ = Eigen::Vector2d(t.u_px, t.v_px);
+    hand_target_px_ = Eigen::Vector2d(t.u_px, t.v_px);  // the next image's prediction, see on_hand_fruit
     hand_target_rx_ = now;
+  }
+  if (!pixel_ || msg.header.utime != pixel_->utime) return out;
+  constexpr double kSamePixel = 0.5;  // [px] the reconstructor copies the detection's centroid
+  for (const auto& t : msg.targets) {
+    if ((Eigen::Vector2d(t.u_px, t.v_px) - Eigen::Vector2d(pixel_->u, pixel_->v)).norm() > kSamePixel) continue;
+    current_->estimate = vec(t.position_base);
+    current_->depth_doubtful = false;
+    break;
   }
   return out;
 }
@@ -560,23 +648,40 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
   const bool looking = state_ == State::kAcquire || state_ == State::kApproach || state_ == State::kReacquire ||
                        state_ == State::kIrApproach;
   if (!current_ || !looking || msg.status != fruit_detections_t::STATUS_OK || !robot_) return out;
-  // Predict where the current fruit is in this image: the reconstructor's
-  // pixel for it, else our last centroid, else the projected estimate.
+  // Where the current fruit is in this image: near our last centroid while
+  // we follow it; else on the image of the fixed camera's line of sight
+  // while its depth is doubtful (nearest the aim point among equals); else
+  // at the hand target the reconstructor matched to the fruit in 3D; else at
+  // the projected estimate.
   Eigen::Vector2d predicted;
+  std::vector<Eigen::Vector2d> sight_px;
   const rt::Micros recent = rt::from_seconds(cfg_.timeouts.lost);
-  if (hand_target_px_ && now - hand_target_rx_ <= recent) {
-    predicted = *hand_target_px_;
-  } else if (pixel_ && now - pixel_rx_ <= recent) {
+  const bool doubtful = current_->depth_doubtful && current_->sight;
+  bool have_point = true;
+  if (pixel_ && now - pixel_rx_ <= recent) {
     predicted = {pixel_->u, pixel_->v};
-  } else if (!project_point(cfg_.hand_camera, camera().inverse() * current_->estimate, predicted)) {
-    return out;
+  } else if (!doubtful && hand_target_px_ && now - hand_target_rx_ <= recent) {
+    predicted = *hand_target_px_;
+  } else {
+    have_point = project_point(cfg_.hand_camera, camera().inverse() * current_->estimate, predicted);
+    if (doubtful) {
+      const SightLine& l = *current_->sight;
+      sight_px = project_segment(cfg_.hand_camera, camera(), l.at(l.near), l.at(l.far));
+    }
+    if (sight_px.empty() && !have_point) return out;
   }
-  double best = cfg_.association_gate_px;
+  // Gate on the distance to the line (or point); among detections on the
+  // line, a hundredth of the distance to the aim point decides.
+  constexpr double kTieWeight = 0.01;
+  double best = std::numeric_limits<double>::infinity();
   const fruit_t* match = nullptr;
   for (const auto& f : msg.fruits) {
-    const double d = (Eigen::Vector2d(f.u_px, f.v_px) - predicted).norm();
-    if (d <= best) {
-      best = d;
+    const Eigen::Vector2d px(f.u_px, f.v_px);
+    const double to_point = have_point ? (px - predicted).norm() : 0.0;
+    const double d = sight_px.empty() ? to_point : distance_to_polyline(sight_px, px);
+    const double score = sight_px.empty() ? d : d + kTieWeight * to_point;
+    if (d <= cfg_.association_gate_px && score < best) {
+      best = score;
       match = &f;
     }
   }
@@ -841,7 +946,15 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
           enter(State::kIrApproach, now, out);
           break;
         case State::kDetach:
-          start_goal(cfg_.drop_pose, State::kDrop, now, out);
+          if (cfg_.release_at_detach) {
+            // Let the fruit fall onto the catching frame under the canopy where
+            // the pull ended (the thesis's HarvestStep5 opens the gripper where
+            // it grasped): no carry to a chute.
+            enter(State::kRelease, now, out);
+            out.gripper = gripper_command(gripper_command_t::ACTION_OPEN);
+          } else {
+            start_goal(cfg_.drop_pose, State::kDrop, now, out);
+          }
           break;
         case State::kDrop:
           enter(State::kRelease, now, out);
@@ -875,6 +988,14 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         return;
       }
       const Eigen::Isometry3d t = tool();
+      if (!current_->depth_doubtful && !cfg_.workspace.contains(current_->estimate)) {
+        // Measured by the camera-in-hand (eq. 6-15) where the arm may not go:
+        // a fruit beyond reach that the fixed camera's depth put nearer.
+        const bool moved = (t.translation() - cfg_.home_pose.translation()).norm() > 0.5 * cfg_.retreat_distance;
+        fail_fruit(fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace", moved, now,
+                   out);
+        return;
+      }
       const double remaining = (current_->estimate - t.translation()).dot(t.rotation().col(2));
       if (remaining <= cfg_.ir_switch_distance) {
         ir_attempt_ = 1;

@@ -92,11 +92,26 @@ class HarvestMachine {
   std::string approach_name() const { return approach_->name(); }
 
  private:
+  // The part of the fixed camera's line of sight through a target where a
+  // fruit we could pick may lie (inside the workspace, ahead of the gripper
+  // at home): origin + s * direction for s in [near, far].
+  struct SightLine {
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+    Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+    double near = 0.0, far = 0.0;
+    Eigen::Vector3d at(double s) const { return origin + s * direction; }
+  };
   struct Fruit {
     int id = -1;
     Eigen::Vector3d estimate = Eigen::Vector3d::Zero();  // base frame, best so far
     rt::Micros selected_at = 0;
     Eigen::Vector3d selected_from = Eigen::Vector3d::Zero();  // the fixed camera's position when selected
+    std::optional<SightLine> sight;                           // where the fixed camera saw it
+    // The fixed camera's depth put it where no fruit can be picked (a piece
+    // of a fruit seen as a small, far one; fruit seen together as one large,
+    // near one): aimed at its line of sight instead, until the camera-in-hand
+    // measures it.
+    bool depth_doubtful = false;
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -122,6 +137,17 @@ class HarvestMachine {
   double ir_forward_speed(bool ir_sees_fruit) const;
   Eigen::Isometry3d inside_workspace(const Eigen::Isometry3d& goal) const;
   bool at_home() const;
+  // A position a fruit can be picked at: inside the workspace and ahead of
+  // the gripper at home (every fruit is aimed at from there).
+  bool pickable(const Eigen::Vector3d& p) const;
+  // The pickable part of the fixed camera's line of sight through `t`;
+  // nullopt if the view carries no camera pose or no part is pickable.
+  std::optional<SightLine> sight_line(const targets_t& view, const target_t& t) const;
+  // Where to aim, from `from`, at a fruit somewhere on a sight line: the
+  // stretch of line the camera-in-hand sees at once, starting at parameter
+  // `s_start` (the end nearest the fixed camera's estimate), aimed at its
+  // middle direction. Returns a point of the line.
+  Eigen::Vector3d sight_aim(const SightLine& line, double s_start, const Eigen::Vector3d& from) const;
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
@@ -163,7 +189,7 @@ class HarvestMachine {
   rt::Micros ir_rx_ = 0;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
-  std::optional<Eigen::Vector2d> hand_target_px_;  // reconstructor's pixel of the current fruit
+  std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 
   std::optional<Fruit> current_;

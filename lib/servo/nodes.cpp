@@ -7,7 +7,7 @@ namespace harvest::servo {
 rt::NodeList make_servo_controller(const config::Node& cfg, const rt::ProcessEnv& env) {
   rt::NodeList nodes;
   nodes.push_back(std::make_unique<ServoControllerNode>(ServoConfig::from_yaml(cfg),
-                                                       env.instance.empty() ? "servo-controller" : env.instance));
+                                                        env.instance.empty() ? "servo-controller" : env.instance));
   return nodes;
 }
 

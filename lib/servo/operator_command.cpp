@@ -8,16 +8,16 @@ namespace harvest::servo {
 namespace {
 const std::map<std::string, int8_t>& commands() {
   static const std::map<std::string, int8_t> m{
-      {"start", operator_command_t::START}, {"pause", operator_command_t::PAUSE},
+      {"start", operator_command_t::START},   {"pause", operator_command_t::PAUSE},
       {"resume", operator_command_t::RESUME}, {"abort", operator_command_t::ABORT},
-      {"home", operator_command_t::HOME}, {"reset-fault", operator_command_t::RESET_FAULT}};
+      {"home", operator_command_t::HOME},     {"reset-fault", operator_command_t::RESET_FAULT}};
   return m;
 }
 }  // namespace
 
 const std::vector<std::string>& operator_verbs() {
-  static const std::vector<std::string> v{"start", "pause", "resume", "abort", "home", "reset-fault", "estop",
-                                          "estop-clear"};
+  static const std::vector<std::string> v{"start", "pause",       "resume", "abort",
+                                          "home",  "reset-fault", "estop",  "estop-clear"};
   return v;
 }
 

@@ -85,7 +85,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.max_angular_accel = n.get("max_angular_accel", c.max_angular_accel, pos);
   c.ir_switch_distance = n.get("ir_switch_distance", c.ir_switch_distance, pos);
   c.ir_approach_speed = n.get("ir_approach_speed", c.ir_approach_speed, pos);
-  c.ir_slowdown_gain = n.get("ir_slowdown_gain", c.ir_slowdown_gain, nonneg);
+  c.ir_braking_decel = n.get("ir_braking_decel", c.ir_braking_decel, pos);
   c.ir_min_speed = n.get("ir_min_speed", c.ir_min_speed, pos);
   c.ir_grasp_range = n.get("ir_grasp_range", c.ir_grasp_range, pos);
   c.ir_max_travel = n.get("ir_max_travel", c.ir_max_travel, pos);
@@ -95,6 +95,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.retreat_distance = n.get("retreat_distance", c.retreat_distance, nonneg);
   c.pull_distance = n.get("pull_distance", c.pull_distance, nonneg);
   c.twist_angle = n.get("twist_angle", c.twist_angle, {-6.3, 6.3});
+  c.release_at_detach = n.get("release_at_detach", c.release_at_detach);
   c.max_attempts_per_fruit = n.get("max_attempts_per_fruit", c.max_attempts_per_fruit, {1, 10});
   c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
   c.min_ahead_of_home = n.get("min_ahead_of_home", c.min_ahead_of_home, {-10.0, 10.0});
@@ -103,6 +104,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
   if (c.ir_min_speed > c.ir_approach_speed) n.fail("ir_min_speed", "a speed no greater than ir_approach_speed");
+  if (c.ir_braking_decel > c.max_linear_accel)
+    n.fail("ir_braking_decel", "a deceleration no greater than max_linear_accel");
 
   const config::Node ws = n.child("workspace");
   c.workspace.min = vec3(ws, "min", c.workspace.min);

@@ -56,17 +56,17 @@ struct Timeouts {
 };
 
 struct ServoConfig {
-  double tick_period_s = 0.02;      // command rate (50 Hz)
-  double status_period_s = 1.0;     // periodic HARVEST_STATUS
-  double validity_s = 0.1;          // validity window of every robot command
-  double max_linear_speed = 0.381;  // [m/s] thesis 15 in/s
-  double max_angular_speed = 1.0;   // [rad/s]
-  double max_linear_accel = 1.0;    // [m/s^2]
-  double max_angular_accel = 3.0;   // [rad/s^2]
+  double tick_period_s = 0.02;        // command rate (50 Hz)
+  double status_period_s = 1.0;       // periodic HARVEST_STATUS
+  double validity_s = 0.1;            // validity window of every robot command
+  double max_linear_speed = 0.381;    // [m/s] thesis 15 in/s
+  double max_angular_speed = 1.5708;  // [rad/s] thesis: PID2 (pi/2) in HarvestStep4/5
+  double max_linear_accel = 1.0;      // [m/s^2]
+  double max_angular_accel = 3.0;     // [rad/s^2]
 
   double ir_switch_distance = 0.4572;  // [m] thesis 18 in: switch to IR guidance
-  double ir_approach_speed = 0.25;     // [m/s] fastest forward speed under IR guidance ...
-  double ir_slowdown_gain = 2.5;       // [1/s] ... slowing in proportion to the range still to go ...
+  double ir_approach_speed = 0.381;    // [m/s] fastest forward speed under IR guidance ...
+  double ir_braking_decel = 0.8;       // [m/s^2] ... braking so it would stop at the grasp range ...
   double ir_min_speed = 0.04;          // [m/s] ... but never below this
   double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
   double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
@@ -76,6 +76,7 @@ struct ServoConfig {
   double retreat_distance = 0.15;      // [m] pull back along the tool axis after a failure
   double pull_distance = 0.10;         // [m] detach: pull back along the tool axis ...
   double twist_angle = 0.5236;         // [rad] ... while twisting about it
+  bool release_at_detach = true;       // open the gripper where the pull ended (false: carry it to drop_pose first)
   int max_attempts_per_fruit = 1;      // a failed fruit is retried at most this many times in total
   double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
   double min_ahead_of_home = 0.05;     // [m] a target must lie this far ahead of the tool at home, along its axis

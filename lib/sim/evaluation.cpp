@@ -215,6 +215,7 @@ void finish(Evaluation& e) {
     return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
   };
   e.success_rate = e.reachable > 0 ? static_cast<double>(e.picked) / e.reachable : 0.0;
+  e.time_per_pick_s = e.picked_any > 0 ? e.sim_duration_s / e.picked_any : std::nan("");
   e.mean_cycle_s = mean(cycles);
   e.max_cycle_s = max(cycles);
   e.mean_error_mm = mean(errors);
@@ -245,6 +246,7 @@ std::string to_json(const Evaluation& e) {
     << ",\n  \"max_final_error_mm\": " << number(e.max_error_mm, 2) << ",\n  \"final_position_std_mm\": ["
     << number(e.final_tool_std_mm[0], 2) << ", " << number(e.final_tool_std_mm[1], 2) << ", "
     << number(e.final_tool_std_mm[2], 2) << "],\n  \"simulated_time_s\": " << number(e.sim_duration_s, 1)
+    << ",\n  \"picked_any\": " << e.picked_any << ",\n  \"time_per_pick_s\": " << number(e.time_per_pick_s, 2)
     << ",\n  \"fruit\": [";
   for (std::size_t i = 0; i < e.fruit.size(); ++i) {
     const auto& f = e.fruit[i];
@@ -277,7 +279,7 @@ std::string to_json(const Evaluation& e) {
 
 std::string to_table(const Evaluation& e) {
   std::ostringstream o;
-  char line[256];
+  char line[512];
   std::snprintf(line, sizeof line, "%-4s %-6s %-8s %-12s %-9s %-10s %-14s\n", "run", "fruit", "counted", "outcome",
                 "cycle s", "error mm", "visible");
   o << line;
@@ -291,11 +293,13 @@ std::string to_table(const Evaluation& e) {
   }
   std::snprintf(line, sizeof line,
                 "\n%s: %d run(s), %d of %d counted fruit picked (%.0f %%), %d picked in all; cycle mean %s s max %s s; "
-                "final error mean %s mm max %s mm; final position std x/y/z %s/%s/%s mm\n",
+                "final error mean %s mm max %s mm; final position std x/y/z %s/%s/%s mm; %s s of run time per "
+                "fruit picked\n",
                 e.scenario.c_str(), e.runs, e.picked, e.reachable, 100.0 * e.success_rate, e.picked_any,
                 number(e.mean_cycle_s, 2).c_str(), number(e.max_cycle_s, 2).c_str(), number(e.mean_error_mm, 1).c_str(),
                 number(e.max_error_mm, 1).c_str(), number(e.final_tool_std_mm[0], 1).c_str(),
-                number(e.final_tool_std_mm[1], 1).c_str(), number(e.final_tool_std_mm[2], 1).c_str());
+                number(e.final_tool_std_mm[1], 1).c_str(), number(e.final_tool_std_mm[2], 1).c_str(),
+                number(e.time_per_pick_s, 1).c_str());
   o << line;
   auto bins = [&](const char* name, const std::vector<DepthBin>& v) {
     if (v.empty()) return;

@@ -17,11 +17,11 @@ namespace harvest::sim {
 struct FruitResult {
   int run = 0;
   int sim_id = 0;
-  bool counted = false;      // reachable and at least half visible to the fixed camera
+  bool counted = false;  // reachable and at least half visible to the fixed camera
   bool reachable = false;
   float visible_fraction = 0.0f;
-  std::string outcome;       // picked, knocked off, held, on tree
-  int controller_fruit_id = -1;       // the software's global id, when the controller reported it
+  std::string outcome;           // picked, knocked off, held, on tree
+  int controller_fruit_id = -1;  // the software's global id, when the controller reported it
   std::optional<double> cycle_time_s;
   std::optional<Vec3> final_offset;  // fruit centre minus TCP when the gripper closed [m]
   std::optional<Vec3> final_tool;    // TCP when the gripper closed [m]
@@ -46,6 +46,9 @@ struct Evaluation {
   double mean_error_mm = 0.0, max_error_mm = 0.0;
   std::array<double, 3> final_tool_std_mm{};  // scatter of the final TCP per axis over picked fruit
   double sim_duration_s = 0.0;
+  // Simulated time per fruit picked (any, counted or not): the harvest rate
+  // including what the cycle time leaves out (returns home, fruit given up).
+  double time_per_pick_s = 0.0;
   std::vector<FruitResult> fruit;
   std::vector<DepthBin> depth_fixed, depth_hand;
   std::vector<std::string> warnings;

@@ -152,6 +152,8 @@ void WorldDouble::publish_fixed() {
   m.header.source_seq = -1;
   m.source_camera = "fixed";
   m.selected_fruit_id = -1;
+  m.camera_known = !spec_.fixed_camera_unknown;
+  for (int k = 0; k < 3 && m.camera_known; ++k) m.camera_position_base[k] = spec_.fixed_camera[k];
   for (std::size_t i = 0; i < spec_.fruits.size(); ++i) {
     if (where_[i] != Where::kTree) continue;
     const auto& f = spec_.fruits[i];
@@ -160,7 +162,8 @@ void WorldDouble::publish_fixed() {
         spec_.fixed_ids_change_after_s && rt::to_seconds(now() - start_) >= *spec_.fixed_ids_change_after_s;
     t.fruit_id = renumbered ? f.id + 1000 : fixed_id(i);
     t.source_camera = "fixed";
-    const Eigen::Vector3d p = f.position + spec_.fixed_error;
+    const Eigen::Vector3d p =
+        spec_.fixed_camera + spec_.fixed_depth_scale * (f.position + spec_.fixed_error - spec_.fixed_camera);
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
     t.covariance_base[0] = t.covariance_base[4] = t.covariance_base[8] = 0.05 * 0.05;
     t.diameter_m = 0.075;
@@ -191,6 +194,8 @@ void WorldDouble::publish_hand() {
   tg.header = det.header;
   tg.source_camera = "hand";
   tg.selected_fruit_id = -1;
+  tg.camera_known = true;
+  for (int k = 0; k < 3; ++k) tg.camera_position_base[k] = cam.translation()[k];
   std::uniform_real_distribution<double> noise(-spec_.pixel_noise, spec_.pixel_noise);
   for (std::size_t i = 0; i < spec_.fruits.size() && !hidden; ++i) {
     if (where_[i] != Where::kTree) continue;
@@ -214,7 +219,8 @@ void WorldDouble::publish_hand() {
     const Eigen::Vector3d est_cam(m.x() * z, m.y() * z, z);
     const Eigen::Vector3d est_base = cam * est_cam;
     target_t ht{};
-    ht.fruit_id = fixed_id(i);  // associated with the fixed-camera track
+    // Associated with the fixed-camera track, unless the reconstructor's 3D match failed.
+    ht.fruit_id = spec_.hand_ids_unassociated ? 100000 + static_cast<int32_t>(i) : fixed_id(i);
     ht.source_camera = "hand";
     for (int j = 0; j < 3; ++j) {
       ht.position_base[j] = est_base[j];

@@ -80,8 +80,14 @@ struct WorldSpec {
   CameraIntrinsics true_hand;                             // the real camera
   CameraIntrinsics assumed_hand;                          // the reconstructor's calibration
   Eigen::Vector3d fixed_error = Eigen::Vector3d::Zero();  // fixed-camera estimate minus truth [m]
-  double hand_depth_scale = 1.0;                          // estimated / true depth in the hand camera
-  double pixel_noise = 0.5;                               // uniform +- [px]
+  // The fixed camera's optical centre (thesis eq. 4-1 translation) and a
+  // depth error along its line of sight: estimate = C + scale (truth + error - C).
+  Eigen::Vector3d fixed_camera = Eigen::Vector3d(-0.2413, 0.2286, -0.4005);
+  double fixed_depth_scale = 1.0;
+  bool fixed_camera_unknown = false;   // TARGETS without the camera's position (logs from before the field)
+  bool hand_ids_unassociated = false;  // the reconstructor matched no hand detection to a fixed-camera fruit
+  double hand_depth_scale = 1.0;       // estimated / true depth in the hand camera
+  double pixel_noise = 0.5;            // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
   std::optional<double> hide_hand_after_s;          // fruit disappears from the hand camera for good

@@ -78,6 +78,9 @@ TEST(Evaluation, ControllerCycleTimesAreMatchedByItsFruitEstimate) {
   EXPECT_EQ(e.reachable, 2);
   EXPECT_NEAR(e.mean_cycle_s, 5.75, 1e-6);
   EXPECT_NEAR(e.mean_error_mm, 15.0, 1e-6);
+  // 10 s of truth for 2 fruit picked: 5 s per fruit, in the JSON as well.
+  EXPECT_NEAR(e.time_per_pick_s, 5.0, 1e-9);
+  EXPECT_NE(to_json(e).find("\"time_per_pick_s\": 5.00"), std::string::npos) << to_json(e);
 }
 
 TEST(Evaluation, ALogWithoutGroundTruthIsRefused) {
