@@ -6,12 +6,15 @@
 // from JacobiSVD and from completeOrthogonalDecomposition (no damping, no
 // redundancy resolution, no limits). The counter `residual_mm_s` is the
 // tracking error |J qdot - twist| of each way, so speed is compared at equal work.
+// Also: evaluating a pose-goal trajectory (pose + feed-forward twist), done
+// once per control step while a goal motion runs.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
 #include "arm/motion_safety.hpp"
+#include "arm/trajectory.hpp"
 #include "kinematics/diff_ik.hpp"
 
 namespace {
@@ -151,6 +154,27 @@ void BM_Jacobian(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Jacobian);
+
+// The pose-goal reference of one control step: pose(t) and twist(t) of a 0.3 m, 0.8 rad goal motion, at times
+// spread over the motion (ramps and cruise).
+void BM_CartesianTrajectoryPoseAndTwist(benchmark::State& state) {
+  Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
+  a.translation() = Eigen::Vector3d(-0.4, 0.7, -0.3);
+  b.translation() = Eigen::Vector3d(-0.2, 0.9, -0.2);
+  b.linear() = Eigen::AngleAxisd(0.8, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  const arm::CartesianTrajectory tr(a, b, {0.381, 1.0, 1.0, 2.0});
+  const double dt = 0.01;
+  double t = 0.0;
+  for (auto _ : state) {
+    const Eigen::Isometry3d p = tr.pose(t);
+    const kinematics::Twist v = tr.twist(t);
+    benchmark::DoNotOptimize(p.data());
+    benchmark::DoNotOptimize(v.data());
+    t += dt;
+    if (t > tr.duration()) t = 0.0;
+  }
+}
+BENCHMARK(BM_CartesianTrajectoryPoseAndTwist);
 
 }  // namespace
 
