@@ -598,13 +598,14 @@ double HarvestMachine::ir_forward_speed(bool ir_sees_fruit) const {
   // during one IR period. Before the IR sees the fruit, the hand
   // camera's estimate says how far it is (the IR range is from the palm, the
   // estimate to the fruit centre: both end at the grasp point within a few cm).
-  double to_go;
-  if (ir_sees_fruit) {
-    to_go = ir_->range_m - cfg_.ir_grasp_range;
-  } else {
-    const Eigen::Isometry3d t = tool();
-    to_go = (current_->estimate - t.translation()).dot(t.rotation().col(2));
-  }
+  // The IR range (palm to fruit surface) ends at the grasp range about 2 cm
+  // before the estimate (tool point to fruit centre) ends at zero, so the
+  // estimate is the longer of the two; it bounds the IR's: the sensor's
+  // fold-back makes a fruit nearer than its peak read far, and the arm must
+  // not speed up into it.
+  const Eigen::Isometry3d t = tool();
+  double to_go = (current_->estimate - t.translation()).dot(t.rotation().col(2));
+  if (ir_sees_fruit) to_go = std::min(to_go, static_cast<double>(ir_->range_m) - cfg_.ir_grasp_range);
   // The speed from which braking at ir_braking_decel stops at the grasp
   // range: the shortest approach that never brakes harder than that.
   return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, to_go)), cfg_.ir_min_speed,
@@ -943,6 +944,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
           break;
         case State::kBackoff:
           ++ir_attempt_;
+          ir_passing_leaf_ = false;
           enter(State::kIrApproach, now, out);
           break;
         case State::kDetach:
@@ -999,6 +1001,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       const double remaining = (current_->estimate - t.translation()).dot(t.rotation().col(2));
       if (remaining <= cfg_.ir_switch_distance) {
         ir_attempt_ = 1;
+        ir_passing_leaf_ = false;
         ir_start_ = t.translation();
         note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm";
         enter(State::kIrApproach, now, out);
@@ -1012,8 +1015,23 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
     }
     case State::kIrApproach: {
       const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
-      const bool inside = ir_fresh && (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
-                          ir_->range_m <= cfg_.ir_grasp_range;
+      const bool at_grasp_range = ir_fresh &&
+                                  (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
+                                  ir_->range_m <= cfg_.ir_grasp_range;
+      // Fruit centre ahead of the tool point by the camera-in-hand's estimate.
+      const Eigen::Isometry3d t = tool();
+      const double ahead = (current_->estimate - t.translation()).dot(t.rotation().col(2));
+      // The IR sees the first thing on its axis: a leaf in front of the fruit
+      // reads like the fruit. A reading at the grasp range while the estimate
+      // puts the fruit much farther is that leaf; the approach goes on past it.
+      const bool leaf = at_grasp_range && !current_->depth_doubtful && ahead > cfg_.ir_vision_agreement;
+      if (leaf && !ir_passing_leaf_) {
+        ir_passing_leaf_ = true;
+        note_ = "IR at " + std::to_string(std::lround(ir_->range_m * 1000)) + " mm, fruit " +
+                std::to_string(std::lround(ahead * 1000)) + " mm ahead: past a leaf";
+        out.status_changed = true;
+      }
+      const bool inside = at_grasp_range && !leaf;
       if (inside) {
         // Thesis HarvestStep5: stop and close the gripper on the fruit.
         out.robot = stop_command();
@@ -1021,16 +1039,16 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         enter(State::kGrasp, now, out);
         return;
       }
-      if ((tool().translation() - ir_start_).norm() > cfg_.ir_max_travel) {
-        on_timeout(now, out);  // out of travel: same as the IR timeout
+      if ((t.translation() - ir_start_).norm() > cfg_.ir_max_travel || ahead < -cfg_.ir_overshoot) {
+        on_timeout(now, out);  // out of travel, or past the fruit: same as the IR timeout
         return;
       }
       if (!ir_fresh) {
         out.robot = twist_command(hold);  // never advance blind
         return;
       }
-      const bool sees = ir_->validity == ir_range_t::VALID;
-      ApproachInput in{now, tool(), camera(), current_->estimate, fresh_pixel(now), ir_forward_speed(sees)};
+      const bool sees = ir_->validity == ir_range_t::VALID && !leaf;
+      ApproachInput in{now, t, camera(), current_->estimate, fresh_pixel(now), ir_forward_speed(sees)};
       out.robot = twist_command(approach_->update(in).twist);
       return;
     }

@@ -212,6 +212,7 @@ class HarvestMachine {
   double goal_best_rotation_ = 0.0;  // ... and its orientation [rad]
   rt::Micros goal_progress_at_ = 0;  // when it last got measurably closer
   int ir_attempt_ = 0;
+  bool ir_passing_leaf_ = false;  // this IR attempt has gone past a leaf (noted once)
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
 };
 

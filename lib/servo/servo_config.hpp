@@ -70,6 +70,8 @@ struct ServoConfig {
   double ir_min_speed = 0.04;          // [m/s] ... but never below this
   double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
   double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
+  double ir_overshoot = 0.05;          // [m] ... or past the estimated fruit centre by this much
+  double ir_vision_agreement = 0.07;   // [m] an IR grasp reading counts only with the fruit centre no farther ahead
   int ir_attempts = 2;                 // IR approaches per fruit (thesis: retry once)
   double orient_tolerance = 0.02;      // [rad] orientation reached
   double position_tolerance = 0.005;   // [m] pose goal reached

@@ -325,6 +325,50 @@ TEST(ClosedLoop, IrGuidedApproachSlowsDownNearTheFruit) {
   EXPECT_LT(last, loop.cfg.ir_min_speed + 0.02) << last;
 }
 
+// A leaf 15 cm in front of the fruit reads like the fruit at the grasp range;
+// the camera-in-hand puts the fruit much farther: the approach goes on past
+// the leaf and closes on the fruit.
+TEST(ClosedLoop, LeafInFrontOfTheFruitIsPassedNotGraspedAt) {
+  WorldSpec spec = experiment_one();
+  spec.leaf_before_fruit_m = 0.15;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+  ASSERT_TRUE(loop.world.close_position().has_value());
+  EXPECT_LT((*loop.world.close_position() - spec.fruits[0].position).norm(), 0.02);
+  bool noted = false;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    noted = noted || st.summary.find("past a leaf") != std::string::npos;
+  EXPECT_TRUE(noted);
+  expect_within_limits(loop);
+}
+
+// An IR sensor that folds back before the grasp range reads a near fruit as
+// far: the camera-in-hand's estimate bounds the range to go, so the arm keeps
+// braking into the fruit instead of speeding up, and backs off past it.
+TEST(ClosedLoop, IrFoldBackDoesNotSpeedTheArmIntoTheFruit) {
+  WorldSpec spec = experiment_one();
+  spec.hand_depth_scale = 1.0;
+  spec.ir_fold_back_below_m = 0.06;
+  ServoConfig cfg = test_config();
+  cfg.ir_grasp_range = 0.035;  // never read: the sensor folds back first
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 30.0)) << loop.ctrl.machine().summary();
+  double fastest_near = 0.0;  // forward speed commanded with the fruit centre < 3 cm ahead
+  while (loop.ctrl.machine().state() == State::kIrApproach && loop.t() < 60.0) {
+    const auto& c = loop.commands().back().second;
+    const Eigen::Isometry3d tool = loop.arm.tool();
+    const double ahead = (spec.fruits[0].position - tool.translation()).dot(tool.rotation().col(2));
+    if (c.type == robot_command_t::TYPE_TWIST && ahead < 0.03)
+      fastest_near = std::max(fastest_near, linear(c).dot(tool.rotation().col(2)));
+    loop.at(loop.t() + 0.01);
+  }
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kBackoff);
+  EXPECT_LT(fastest_near, 0.25) << "m/s";
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
@@ -340,6 +384,14 @@ TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   EXPECT_EQ(std::count(states.begin(), states.end(), "IR_APPROACH"), 2);
   EXPECT_EQ(std::count(states.begin(), states.end(), "BACKOFF"), 1);
   EXPECT_FALSE(loop.world.close_position().has_value());
+  // It backs off once past the estimated fruit centre by ir_overshoot, not
+  // after ir_max_travel: the tool point never got that far beyond the fruit.
+  double deepest = -1.0;
+  for (const auto& [time, st] : loop.bus.messages<robot_state_t>(ch::kRobotState)) {
+    const Eigen::Isometry3d tool = to_isometry(st.tool_pose);
+    deepest = std::max(deepest, (tool.translation() - spec.fruits[0].position).dot(tool.rotation().col(2)));
+  }
+  EXPECT_LT(deepest, loop.cfg.ir_overshoot + 0.03) << "tool point " << deepest * 1000 << " mm past the fruit";
   expect_within_limits(loop);
   expect_published(loop, 1, fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered");
   expect_motion_stopped(loop);

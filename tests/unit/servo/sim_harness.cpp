@@ -251,6 +251,14 @@ void WorldDouble::publish_ir() {
     const double r = spec_.fruits[i].diameter / 2;
     if (along > 0 && lateral < 0.7 * r) range = std::min(range, along - std::sqrt(r * r - lateral * lateral));
   }
+  if (spec_.leaf_before_fruit_m && !spec_.fruits.empty() && where_[0] == Where::kTree) {
+    const Eigen::Vector3d f = spec_.fruits[0].position;
+    const Eigen::Vector3d leaf = f - *spec_.leaf_before_fruit_m * (f - spec_.start_tool.translation()).normalized();
+    const Eigen::Vector3d d = leaf - sensor;
+    const double along = d.dot(axis);
+    if (along > 0 && (d - along * axis).norm() < 0.03) range = std::min(range, along);
+  }
+  if (spec_.ir_fold_back_below_m && range < *spec_.ir_fold_back_below_m) range = 0.3;
   ir_range_t m{};
   m.header.utime = now();
   m.header.frame_id = "ir";

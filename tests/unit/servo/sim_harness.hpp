@@ -90,9 +90,15 @@ struct WorldSpec {
   double pixel_noise = 0.5;            // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
-  std::optional<double> hide_hand_after_s;          // fruit disappears from the hand camera for good
-  std::optional<double> hide_hand_for_s;            // ... only for this long
-  bool ir_dead = false;                             // IR always reports TOO_FAR
+  std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
+  std::optional<double> hide_hand_for_s;    // ... only for this long
+  bool ir_dead = false;                     // IR always reports TOO_FAR
+  // A leaf this far in front of the first fruit, across the line from the
+  // start pose to it (a 3 cm disc the IR sees until the sensor passes it).
+  std::optional<double> leaf_before_fruit_m;
+  // Below this true range the IR folds back: it reports VALID but far (0.3 m),
+  // as a triangulating sensor does nearer than its peak.
+  std::optional<double> ir_fold_back_below_m;
   bool gripper_misses = false;                      // closes on nothing
   bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
   std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
