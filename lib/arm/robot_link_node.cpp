@@ -1,5 +1,6 @@
 #include "arm/robot_link_node.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -54,6 +55,107 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.joint_gain = ctl.get<double>("joint_gain", 5.0, {0.0, 100.0});
   c.enable_timeout = ctl.get<int>("enable_timeout_ms", 3000, {100, 60000}) * 1000;
   return c;
+}
+
+CartesianStep cartesian_step(const RobotLinkConfig& config, const Eigen::VectorXd& q, const Eigen::Isometry3d& tool,
+                             const kinematics::Twist& v, const Eigen::VectorXd& previous, double dt) {
+  CartesianStep out;
+  out.clip = clip_twist(v, tool.translation(), config.workspace, config.limits, dt);
+  const Eigen::VectorXd want = kinematics::joint_velocity_within_limits(config.model, q, out.clip.twist, dt);
+  const auto lim = kinematics::limit_joint_velocity(config.model, q, previous, want, dt);
+  out.qdot = lim.qdot;
+  out.position_clipped = lim.position_clipped;
+  return out;
+}
+
+CartesianStep pose_goal_step(const RobotLinkConfig& config, const CartesianTrajectory& trajectory, double t,
+                             const Eigen::VectorXd& q, const Eigen::VectorXd& previous, double dt) {
+  const Eigen::Isometry3d tool = kinematics::tool_pose(config.model, q);
+  const kinematics::Twist e = kinematics::pose_error(trajectory.pose(t), tool);
+  kinematics::Twist v = trajectory.twist(t);
+  v.head<3>() += config.position_gain * e.head<3>();
+  v.tail<3>() += config.orientation_gain * e.tail<3>();
+  return cartesian_step(config, q, tool, v, previous, dt);
+}
+
+PoseGoalDryRun dry_run_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
+                                 Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options) {
+  const double dt = rt::to_seconds(config.can.sync_period);
+  const int end_of_path = static_cast<int>(std::ceil(trajectory.duration() / dt));
+  const int last = end_of_path + static_cast<int>(std::ceil(options.settle / dt));
+  PoseGoalDryRun out;
+  const auto measure = [&] {
+    const kinematics::Twist e = kinematics::pose_error(trajectory.goal(), kinematics::tool_pose(config.model, q));
+    out.position_error = e.head<3>().norm();
+    out.orientation_error = e.tail<3>().norm();
+    out.reached =
+        out.position_error <= options.position_tolerance && out.orientation_error <= options.orientation_tolerance;
+  };
+  for (int k = 0; k < last; ++k) {
+    if (k >= end_of_path) {
+      measure();
+      if (out.reached) break;
+    }
+    const CartesianStep step = pose_goal_step(config, trajectory, k * dt, q, previous, dt);
+    if (step.position_clipped) ++out.position_clipped_steps;
+    q += step.qdot * dt;
+    previous = step.qdot;
+    ++out.steps;
+  }
+  measure();
+  out.time = out.steps * dt;
+  out.q = std::move(q);
+  return out;
+}
+
+std::string dry_run_shortfall(const PoseGoalDryRun& d) {
+  return fmt::format("the straight path's dry run stops {:.1f} mm, {:.3f} rad short{}", 1000.0 * d.position_error,
+                     d.orientation_error, d.position_clipped_steps > 0 ? " at joint limits" : "");
+}
+
+std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, const Eigen::VectorXd& q,
+                                                const Eigen::VectorXd& solution, std::string* why) {
+  const Eigen::VectorXd delta = solution - q;
+  const int samples = std::max(20, static_cast<int>(std::ceil(delta.cwiseAbs().maxCoeff() / 0.01)));
+  for (int i = 0; i <= samples; ++i) {
+    const Eigen::VectorXd qi = q + (static_cast<double>(i) / samples) * delta;
+    const Eigen::Vector3d p = kinematics::tool_pose(config.model, qi).translation();
+    if (!config.workspace.contains(p)) {
+      if (why != nullptr)
+        *why =
+            fmt::format("the joint-space path to its joint solution leaves the workspace at ({:.3f}, {:.3f}, {:.3f}) m",
+                        p.x(), p.y(), p.z());
+      return std::nullopt;
+    }
+  }
+  JointTrajectory path(q, solution, config.model.max_velocity(), config.model.max_acceleration());
+  if (why != nullptr)
+    *why = fmt::format("joint space, {:.2f} s, largest joint move {:.2f} rad", path.duration(),
+                       delta.cwiseAbs().maxCoeff());
+  return path;
+}
+
+PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
+                            const Eigen::VectorXd& q, const Eigen::VectorXd& previous) {
+  PoseGoalPlan plan;
+  plan.dry_run = dry_run_pose_goal(config, trajectory, q, previous, config.dry_run);
+  if (plan.dry_run.reached) {
+    plan.way = PoseGoalPlan::Way::kCartesian;
+    plan.why = fmt::format("the straight path's dry run ends {:.1f} mm, {:.3f} rad from it",
+                           1000.0 * plan.dry_run.position_error, plan.dry_run.orientation_error);
+    return plan;
+  }
+  const std::string shortfall = dry_run_shortfall(plan.dry_run);
+  const auto solution = kinematics::solve_pose(config.model, trajectory.goal(), q);
+  if (!solution) {
+    plan.why = shortfall + ", and no joint solution was found";
+    return plan;
+  }
+  std::string why;
+  plan.joints = joint_space_path(config, q, *solution, &why);
+  plan.way = plan.joints ? PoseGoalPlan::Way::kJointSpace : PoseGoalPlan::Way::kUnreachable;
+  plan.why = shortfall + (plan.joints ? "; " : ", and ") + why;
+  return plan;
 }
 
 RobotLinkNode::RobotLinkNode(RobotLinkConfig config, std::unique_ptr<can::CanBus> bus)
@@ -139,18 +241,21 @@ void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
       if (!pos.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3)
         return refuse(cmd, "pose goal is not a position and a unit quaternion");
       if (!config_.workspace.contains(pos)) return refuse(cmd, "pose goal outside the workspace");
-      if (active_ == Active::kPoseGoal && cmd.goal_id == goal_id_) break;  // same goal, refreshed
+      if ((active_ == Active::kPoseGoal || active_ == Active::kPlanning || active_ == Active::kPoseGoalInJoints) &&
+          cmd.goal_id == goal_id_)
+        break;  // same goal, refreshed
       Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
       goal.translation() = pos;
       goal.linear() = q.normalized().toRotationMatrix();
-      CartesianTrajectory::Limits lim{config_.limits.linear_speed, config_.limits.angular_speed,
-                                      config_.limits.linear_acceleration, config_.limits.angular_acceleration};
-      if (cmd.max_linear_speed > 0) lim.linear_speed = std::min(lim.linear_speed, cmd.max_linear_speed);
-      if (cmd.max_angular_speed > 0) lim.angular_speed = std::min(lim.angular_speed, cmd.max_angular_speed);
-      pose_traj_.emplace(kinematics::tool_pose(config_.model, q_), goal, lim);
-      traj_start_ = t;
-      goal_id_ = cmd.goal_id;
-      active_ = Active::kPoseGoal;
+      if (unreachable_goal_id_ == cmd.goal_id && goal.isApprox(unreachable_goal_, 1e-12)) {
+        // A resend of a goal found unreachable: still refused, not planned
+        // again, and the same refusal (no new limit event).
+        refused_ = true;
+        limit_text_ = unreachable_text_;
+        count("commands_refused");
+        return;
+      }
+      accept_pose_goal(cmd, goal);
       break;
     }
     case harvest::robot_command_t::TYPE_JOINT_GOAL: {
@@ -174,6 +279,70 @@ void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
   if (cmd.type != harvest::robot_command_t::TYPE_STOP) supervisor_.on_command(t, cmd.validity_us);
   last_command_seq_ = cmd.header.seq;
   last_command_utime_ = cmd.header.utime;
+}
+
+void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal) {
+  CartesianTrajectory::Limits lim{config_.limits.linear_speed, config_.limits.angular_speed,
+                                  config_.limits.linear_acceleration, config_.limits.angular_acceleration};
+  if (cmd.max_linear_speed > 0) lim.linear_speed = std::min(lim.linear_speed, cmd.max_linear_speed);
+  if (cmd.max_angular_speed > 0) lim.angular_speed = std::min(lim.angular_speed, cmd.max_angular_speed);
+  CartesianTrajectory path(kinematics::tool_pose(config_.model, q_), goal, lim);
+  goal_id_ = cmd.goal_id;
+  traj_start_ = now();
+  planning_.reset();
+  if (!config_.pose_goal_joint_fallback) {  // no dry run: Cartesian, as before
+    pose_traj_.emplace(path);
+    active_ = Active::kPoseGoal;
+    return;
+  }
+  const PoseGoalDryRun dry = dry_run_pose_goal(config_, path, q_, last_cmd_, config_.dry_run);
+  if (dry.reached) {
+    pose_traj_.emplace(path);
+    active_ = Active::kPoseGoal;
+    count("pose_goals_cartesian");
+    spdlog::info("pose goal {}: Cartesian (the straight path's dry run ends {:.1f} mm, {:.3f} rad from it)",
+                 cmd.goal_id, 1000.0 * dry.position_error, dry.orientation_error);
+    return;
+  }
+  // The IK runs a slice per control period (continue_planning) while the arm holds.
+  planning_.emplace(Planning{cmd, goal, dry_run_shortfall(dry), kinematics::PoseSolver(config_.model, goal, q_)});
+  active_ = Active::kPlanning;
+}
+
+void RobotLinkNode::continue_planning() {
+  // It goes on through a stale command (a loaded machine may delay the
+  // resends): the motion it leads to moves only while the command is fresh.
+  Planning& p = *planning_;
+  if (!p.solver.run(config_.ik_iterations_per_period)) return;
+  const Planning done = std::move(p);
+  planning_.reset();
+  if (!done.solver.solution()) {
+    pose_goal_unreachable(done.cmd, done.goal,
+                          fmt::format("{}, and no joint solution was found ({} IK iterations)", done.shortfall,
+                                      done.solver.iterations()));
+    return;
+  }
+  std::string why;
+  joint_traj_ = joint_space_path(config_, q_, *done.solver.solution(), &why);
+  if (!joint_traj_) {
+    pose_goal_unreachable(done.cmd, done.goal, done.shortfall + ", and " + why);
+    return;
+  }
+  active_ = Active::kPoseGoalInJoints;
+  traj_start_ = now();
+  count("pose_goals_joint_space");
+  spdlog::info("pose goal {}: {}; {} ({} IK iterations)", done.cmd.goal_id, done.shortfall, why,
+               done.solver.iterations());
+}
+
+void RobotLinkNode::pose_goal_unreachable(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal,
+                                          const std::string& why) {
+  unreachable_goal_id_ = cmd.goal_id;
+  unreachable_goal_ = goal;
+  active_ = Active::kNone;
+  count("pose_goals_unreachable");
+  refuse(cmd, "pose goal not reachable: " + why);
+  unreachable_text_ = limit_text_;
 }
 
 void RobotLinkNode::on_estop(const harvest::emergency_stop_t& msg) {
@@ -233,40 +402,33 @@ void RobotLinkNode::supervise() {
   if (enabled) enable_started_ = now();  // the timeout counts from the last time all were enabled
 }
 
-Eigen::VectorXd RobotLinkNode::desired_velocity(double dt) {
-  const int n = config_.model.dof();
-  Eigen::VectorXd qd = Eigen::VectorXd::Zero(n);
+Eigen::VectorXd RobotLinkNode::command_velocity(double dt) {
   limited_now_ = false;
-  if (!supervisor_.command_fresh(now())) return qd;  // stale or no command: controlled stop
-  const Eigen::Isometry3d tool = kinematics::tool_pose(config_.model, q_);
-  kinematics::Twist v = kinematics::Twist::Zero();
-  switch (active_) {
-    case Active::kNone:
-      return qd;
-    case Active::kJointGoal: {
-      const double t = rt::to_seconds(now() - traj_start_);
-      return joint_traj_->velocity(t) + config_.joint_gain * (joint_traj_->position(t) - q_);
-    }
-    case Active::kTwist:
-      v = twist_;
-      break;
-    case Active::kPoseGoal: {
-      const double t = rt::to_seconds(now() - traj_start_);
-      const kinematics::Twist e = kinematics::pose_error(pose_traj_->pose(t), tool);
-      v = pose_traj_->twist(t);
-      v.head<3>() += config_.position_gain * e.head<3>();
-      v.tail<3>() += config_.orientation_gain * e.tail<3>();
-      break;
-    }
+  const bool fresh = supervisor_.command_fresh(now());  // stale or no command: controlled stop
+  const double t = rt::to_seconds(now() - traj_start_);
+  CartesianStep step;
+  if (fresh && active_ == Active::kTwist) {
+    step = cartesian_step(config_, q_, kinematics::tool_pose(config_.model, q_), twist_, last_cmd_, dt);
+  } else if (fresh && active_ == Active::kPoseGoal) {
+    step = pose_goal_step(config_, *pose_traj_, t, q_, last_cmd_, dt);
+  } else {
+    // Joint-space motions, and the ramp to rest (no command, a stale one, a pose goal being planned).
+    Eigen::VectorXd want = Eigen::VectorXd::Zero(config_.model.dof());
+    if (fresh && (active_ == Active::kJointGoal || active_ == Active::kPoseGoalInJoints))
+      want = joint_traj_->velocity(t) + config_.joint_gain * (joint_traj_->position(t) - q_);
+    const auto lim = kinematics::limit_joint_velocity(config_.model, q_, last_cmd_, want, dt);
+    step.qdot = lim.qdot;
+    step.position_clipped = lim.position_clipped;
   }
-  const ClippedTwist c = clip_twist(v, tool.translation(), config_.workspace, config_.limits, dt);
-  if (c.clipped) {
+  if (step.clip.clipped) {
     limited_now_ = true;
-    if (limit_text_ != c.reason) limit_event(c.reason);  // one event per episode, not per cycle
+    if (limit_text_ != step.clip.reason) limit_event(step.clip.reason);  // one event per episode, not per cycle
   }
-  int locked = 0;
-  qd = kinematics::joint_velocity_within_limits(config_.model, q_, c.twist, dt, {}, &locked);
-  return qd;
+  if (step.position_clipped && !limited_now_) {
+    limited_now_ = true;
+    if (limit_text_ != "joint position limit") limit_event("joint position limit");
+  }
+  return step.qdot;
 }
 
 void RobotLinkNode::tick() {
@@ -313,15 +475,7 @@ void RobotLinkNode::tick() {
     }
   } else {
     master_->set_goal(DriveGoal::kEnabled);
-    if (enabled) {
-      const Eigen::VectorXd want = desired_velocity(dt);
-      const auto lim = kinematics::limit_joint_velocity(config_.model, q_, last_cmd_, want, dt);
-      if (lim.position_clipped && !limited_now_) {
-        limited_now_ = true;
-        if (limit_text_ != "joint position limit") limit_event("joint position limit");
-      }
-      cmd = lim.qdot;
-    }
+    if (enabled) cmd = command_velocity(dt);
   }
   if (!limited_now_ && !refused_) limit_text_.clear();
   master_->set_velocities(std::vector<double>(cmd.data(), cmd.data() + n));
@@ -329,6 +483,8 @@ void RobotLinkNode::tick() {
   const Micros sampled = last_sync_;
   master_->sync(t);
   last_sync_ = t;
+  // After the SYNC, so a slice of pose-goal IK never delays it.
+  if (active_ == Active::kPlanning && supervisor_.may_move() && !shutting_down_) continue_planning();
 
   if (supervisor_.estopped() || supervisor_.faulted())
     set_health(rt::Health::kError, supervisor_.estopped() ? supervisor_.estop_text() : supervisor_.fault_text());

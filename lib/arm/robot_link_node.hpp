@@ -22,6 +22,16 @@
 
 namespace harvest::arm {
 
+// When a pose goal's Cartesian dry run counts as reaching the goal
+// (dry_run_pose_goal): within these tolerances by the trajectory's end plus
+// `settle`. A path that lags behind its reference (joint speed limits near a
+// wrist singularity) but converges within the settle time is not stuck.
+struct DryRunOptions {
+  double settle = 1.0;                  // [s] after the trajectory's end
+  double position_tolerance = 0.002;    // [m]
+  double orientation_tolerance = 0.01;  // [rad]
+};
+
 struct RobotLinkConfig {
   std::string bus = "udp_multicast:239.74.163.2:43113";
   kinematics::ArmModel model;
@@ -32,6 +42,16 @@ struct RobotLinkConfig {
   double orientation_gain = 5.0;
   double joint_gain = 5.0;
   Micros enable_timeout = 3'000'000;
+  // A new pose goal whose Cartesian path the dry run finds stuck is solved
+  // by IK and run in joint space (plan_pose_goal). Off: always Cartesian, as
+  // before (tests compare the two).
+  bool pose_goal_joint_fallback = true;
+  DryRunOptions dry_run;
+  // Iterations of that IK (kinematics::PoseSolver) per control period (15-30
+  // us each on the shared 2-core machine), run after the period's SYNC: the
+  // search (at most 9000 iterations) is spread over periods so SYNC stays on
+  // time.
+  int ik_iterations_per_period = 150;
 
   static RobotLinkConfig from_config(const config::Node& root);
 };
@@ -50,6 +70,70 @@ enum FaultFlag : int32_t {
   kFlagEnableTimeout = 1 << 9,  // drives did not reach operation enabled in time
 };
 
+// ---- Control law, shared by the live loop and the pose-goal dry run.
+
+// One SYNC period of the Cartesian control law: the requested tool twist `v`
+// clipped to the speed limits and the workspace (clip_twist), mapped to joint
+// velocities by the DLS IK with joint-limit locking
+// (joint_velocity_within_limits), then limited per joint from the previous
+// command (limit_joint_velocity: speed, acceleration, stopping distance).
+struct CartesianStep {
+  Eigen::VectorXd qdot;           // the joint velocity command [rad/s]
+  ClippedTwist clip;              // the twist after clipping, and why it was clipped
+  bool position_clipped = false;  // a joint was slowed at its position limit
+};
+CartesianStep cartesian_step(const RobotLinkConfig& config, const Eigen::VectorXd& q, const Eigen::Isometry3d& tool,
+                             const kinematics::Twist& v, const Eigen::VectorXd& previous, double dt);
+
+// The pose-goal law at time `t` of its trajectory: the feed-forward twist plus
+// the position and orientation gains on the error from `q`'s tool pose to the
+// reference pose, through cartesian_step.
+CartesianStep pose_goal_step(const RobotLinkConfig& config, const CartesianTrajectory& trajectory, double t,
+                             const Eigen::VectorXd& q, const Eigen::VectorXd& previous, double dt);
+
+// The pose-goal law run offline: from joints `q` and previous command
+// `previous`, pose_goal_step every SYNC period (config.can.sync_period) with q
+// integrated, for the trajectory's duration and then until the tool is within
+// the tolerances of the goal or `settle` more seconds have passed.
+struct PoseGoalDryRun {
+  Eigen::VectorXd q;               // joints at the end
+  double position_error = 0.0;     // tool to goal at the end [m]
+  double orientation_error = 0.0;  // [rad]
+  double time = 0.0;               // simulated [s]
+  int steps = 0;
+  int position_clipped_steps = 0;  // steps in which a joint was held at its position limit
+  bool reached = false;            // within the tolerances at the end
+};
+PoseGoalDryRun dry_run_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
+                                 Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options = {});
+
+// "the straight path's dry run stops 12.0 mm, 0.430 rad short (at joint limits)": why a dry run is not enough.
+std::string dry_run_shortfall(const PoseGoalDryRun& dry_run);
+
+// The joint-space way from `q` to `solution` (joints for a pose goal): the
+// straight joint-space interpolation, sampled at most 0.01 rad of joint motion
+// apart, must keep the tool inside config.workspace (else none, and `why`
+// says where it leaves). A JointTrajectory within the model's joint speed and
+// acceleration limits, as for TYPE_JOINT_GOAL (`why` gives its duration).
+std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, const Eigen::VectorXd& q,
+                                                const Eigen::VectorXd& solution, std::string* why);
+
+// How a new pose goal is executed: the Cartesian trajectory if its dry run
+// reaches the goal; else, if kinematics::solve_pose (seeded at the current
+// joints) finds joints for it and joint_space_path accepts the way there, that
+// JointTrajectory; else it is refused. RobotLinkNode takes the same decision
+// without blocking (the IK spread over its control periods); this is the
+// all-at-once form (tests, benchmark).
+struct PoseGoalPlan {
+  enum class Way { kCartesian, kJointSpace, kUnreachable };
+  Way way = Way::kUnreachable;
+  PoseGoalDryRun dry_run;
+  std::optional<JointTrajectory> joints;  // kJointSpace
+  std::string why;                        // one line for the log or the refusal
+};
+PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
+                            const Eigen::VectorXd& q, const Eigen::VectorXd& previous);
+
 class RobotLinkNode final : public rt::Node {
  public:
   // `bus` may be injected (tests); otherwise config.bus is opened in on_attach.
@@ -63,15 +147,29 @@ class RobotLinkNode final : public rt::Node {
   void on_attach() override;
 
  private:
-  enum class Active { kNone, kTwist, kPoseGoal, kJointGoal };
+  // kPlanning: a new pose goal whose Cartesian dry run fell short, its IK
+  // running (a slice per period) while the arm holds. kPoseGoalInJoints: a
+  // pose goal executed on a JointTrajectory.
+  enum class Active { kNone, kTwist, kPoseGoal, kPlanning, kPoseGoalInJoints, kJointGoal };
+  struct Planning {
+    harvest::robot_command_t cmd;
+    Eigen::Isometry3d goal;
+    std::string shortfall;  // dry_run_shortfall
+    kinematics::PoseSolver solver;
+  };
 
   void tick();
   void on_command(const harvest::robot_command_t& cmd);
   void on_estop(const harvest::emergency_stop_t& msg);
   void on_operator(const harvest::operator_command_t& msg);
   void refuse(const harvest::robot_command_t& cmd, const std::string& why);
+  void accept_pose_goal(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal);
+  void continue_planning();
+  void pose_goal_unreachable(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal,
+                             const std::string& why);
   void limit_event(const std::string& why);
-  Eigen::VectorXd desired_velocity(double dt);
+  // This period's joint velocity command (all limits applied) for the active command.
+  Eigen::VectorXd command_velocity(double dt);
   void supervise();
   void publish_state(const Eigen::VectorXd& cmd, Micros sampled);
   void restart_master();
@@ -87,8 +185,13 @@ class RobotLinkNode final : public rt::Node {
   kinematics::Twist twist_ = kinematics::Twist::Zero();
   std::optional<CartesianTrajectory> pose_traj_;
   std::optional<JointTrajectory> joint_traj_;
+  std::optional<Planning> planning_;
   Micros traj_start_ = 0;
   int64_t goal_id_ = -1;
+  // The last pose goal refused as unreachable: its resends are refused again without planning.
+  std::optional<int64_t> unreachable_goal_id_;
+  Eigen::Isometry3d unreachable_goal_ = Eigen::Isometry3d::Identity();
+  std::string unreachable_text_;
   int64_t last_command_seq_ = -1;
   int64_t last_command_utime_ = 0;
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 namespace harvest::kinematics {
 
@@ -121,42 +122,57 @@ Twist pose_error(const Eigen::Isometry3d& desired, const Eigen::Isometry3d& curr
   return e;
 }
 
-namespace {
-std::optional<Eigen::VectorXd> solve_from(const ArmModel& model, const Eigen::Isometry3d& target, Eigen::VectorXd q,
-                                          const PoseSolveOptions& options) {
-  const Eigen::VectorXd lo = model.lower(), hi = model.upper();
-  for (int it = 0; it < options.max_iterations; ++it) {
-    const Twist e = pose_error(target, tool_pose(model, q));
-    if (e.head<3>().norm() < options.position_tolerance && e.tail<3>().norm() < options.orientation_tolerance) return q;
+PoseSolver::PoseSolver(const ArmModel& model, const Eigen::Isometry3d& target, const Eigen::VectorXd& seed,
+                       const PoseSolveOptions& options)
+    : model_(&model), target_(target), options_(options), q_(seed), lo_(model.lower()), hi_(model.upper()) {}
+
+void PoseSolver::next_start() {
+  if (restart_ >= options_.restarts) {
+    done_ = true;
+    return;
+  }
+  // Restart seeds: the joint-range centres perturbed by a fixed sequence.
+  const auto uniform = [this] {
+    random_ = random_ * 1664525u + 1013904223u;
+    return static_cast<double>(random_ >> 8) / static_cast<double>(1u << 24);
+  };
+  for (int i = 0; i < model_->dof(); ++i) {
+    const auto& jt = model_->joints[i];
+    q_[i] = jt.min + (0.25 + 0.5 * uniform()) * (jt.max - jt.min);
+  }
+  ++restart_;
+  iteration_ = 0;
+}
+
+bool PoseSolver::run(int iterations) {
+  while (!done_ && iterations > 0) {
+    if (iteration_ >= options_.max_iterations) {  // this start stalled (a local minimum against a limit)
+      next_start();
+      continue;
+    }
+    --iterations;
+    ++iteration_;
+    ++total_;
+    const Twist e = pose_error(target_, tool_pose(*model_, q_));
+    if (e.head<3>().norm() < options_.position_tolerance && e.tail<3>().norm() < options_.orientation_tolerance) {
+      solution_ = q_;
+      done_ = true;
+      break;
+    }
     // A Newton step on the pose error, bounded so the linearisation holds.
-    Eigen::VectorXd step = joint_velocity_within_limits(model, q, e, 1.0, options.ik);
+    Eigen::VectorXd step = joint_velocity_within_limits(*model_, q_, e, 1.0, options_.ik);
     const double norm = step.norm();
     if (norm > 0.2) step *= 0.2 / norm;
-    q = (q + step).cwiseMax(lo).cwiseMin(hi);
+    q_ = (q_ + step).cwiseMax(lo_).cwiseMin(hi_);
   }
-  return std::nullopt;
+  return done_;
 }
-}  // namespace
 
 std::optional<Eigen::VectorXd> solve_pose(const ArmModel& model, const Eigen::Isometry3d& target,
                                           const Eigen::VectorXd& seed, const PoseSolveOptions& options) {
-  if (auto q = solve_from(model, target, seed, options)) return q;
-  // Restart seeds: the joint-range centres perturbed by a fixed sequence
-  // (a small linear congruential generator with a constant seed).
-  uint32_t state = 12345u;
-  const auto uniform = [&state] {
-    state = state * 1664525u + 1013904223u;
-    return static_cast<double>(state >> 8) / static_cast<double>(1u << 24);
-  };
-  for (int r = 0; r < options.restarts; ++r) {
-    Eigen::VectorXd start(model.dof());
-    for (int i = 0; i < model.dof(); ++i) {
-      const auto& jt = model.joints[i];
-      start[i] = jt.min + (0.25 + 0.5 * uniform()) * (jt.max - jt.min);
-    }
-    if (auto q = solve_from(model, target, start, options)) return q;
-  }
-  return std::nullopt;
+  PoseSolver solver(model, target, seed, options);
+  solver.run(std::numeric_limits<int>::max());
+  return solver.solution();
 }
 
 }  // namespace harvest::kinematics

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -65,5 +66,35 @@ struct PoseSolveOptions {
 // deterministic spread of configurations, so the answer is reproducible.
 std::optional<Eigen::VectorXd> solve_pose(const ArmModel& model, const Eigen::Isometry3d& target,
                                           const Eigen::VectorXd& seed, const PoseSolveOptions& options = {});
+
+// solve_pose in resumable pieces, for a caller that must not block for the
+// whole search (the robot link spreads it over its control periods): the same
+// starts and iterations, so the same answer. `model` must outlive the solver.
+class PoseSolver {
+ public:
+  PoseSolver(const ArmModel& model, const Eigen::Isometry3d& target, const Eigen::VectorXd& seed,
+             const PoseSolveOptions& options = {});
+  // Runs at most `iterations` more iterations (one pose error and one Newton
+  // step each); returns done().
+  bool run(int iterations);
+  bool done() const { return done_; }
+  // Once done: the joints found, or none if every start ran out of iterations.
+  const std::optional<Eigen::VectorXd>& solution() const { return solution_; }
+  int iterations() const { return total_; }  // so far, over all starts
+
+ private:
+  void next_start();
+
+  const ArmModel* model_;
+  Eigen::Isometry3d target_;
+  PoseSolveOptions options_;
+  Eigen::VectorXd q_, lo_, hi_;
+  int restart_ = 0;    // restarts begun
+  int iteration_ = 0;  // iterations of the current start
+  int total_ = 0;
+  uint32_t random_ = 12345u;  // restart seeds: a small linear congruential generator with a constant seed
+  bool done_ = false;
+  std::optional<Eigen::VectorXd> solution_;
+};
 
 }  // namespace harvest::kinematics

@@ -7,13 +7,16 @@
 // redundancy resolution, no limits). The counter `residual_mm_s` is the
 // tracking error |J qdot - twist| of each way, so speed is compared at equal work.
 // Also: evaluating a pose-goal trajectory (pose + feed-forward twist), done
-// once per control step while a goal motion runs.
+// once per control step while a goal motion runs; and the robot link's
+// decision for a new pose goal: the Cartesian dry run (the control law run
+// offline over the whole motion), the joint-space fallback's IK.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
 #include "arm/motion_safety.hpp"
+#include "arm/robot_link_node.hpp"
 #include "arm/trajectory.hpp"
 #include "kinematics/diff_ik.hpp"
 
@@ -175,6 +178,99 @@ void BM_CartesianTrajectoryPoseAndTwist(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_CartesianTrajectoryPoseAndTwist);
+
+const arm::RobotLinkConfig& link_config() {
+  static const arm::RobotLinkConfig c = [] {
+    auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+    return arm::RobotLinkConfig::from_config(doc.root());
+  }();
+  return c;
+}
+
+arm::CartesianTrajectory::Limits goal_limits() {
+  const auto& l = link_config().limits;
+  return {l.linear_speed, l.angular_speed, l.linear_acceleration, l.angular_acceleration};
+}
+
+// The tool at its home pose turned by `angle` about `axis` (base frame), position kept: an ORIENT step.
+Eigen::Isometry3d turned_at_home(double angle, const Eigen::Vector3d& axis) {
+  const auto& c = link_config();
+  Eigen::Isometry3d goal = kinematics::tool_pose(c.model, c.model.home);
+  goal.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix() * goal.linear();
+  return goal;
+}
+
+// The dry run of a typical ORIENT re-orientation: 1 rad from the home joints
+// (the approach axis, +y at home, turned toward -x and +z: up and to the
+// right), Cartesian path of 1.79 s plus settling, every 10 ms SYNC period.
+void BM_PoseGoalDryRun1Rad(benchmark::State& state) {
+  const auto& c = link_config();
+  const Eigen::Isometry3d start = kinematics::tool_pose(c.model, c.model.home);
+  const arm::CartesianTrajectory path(start, turned_at_home(1.0, Eigen::Vector3d(1, 0, 1)), goal_limits());
+  const Eigen::VectorXd previous = Eigen::VectorXd::Zero(c.model.dof());
+  arm::PoseGoalDryRun d;
+  for (auto _ : state) {
+    d = arm::dry_run_pose_goal(c, path, c.model.home, previous, c.dry_run);
+    benchmark::DoNotOptimize(d.q.data());
+  }
+  state.counters["reached"] = d.reached;
+  state.counters["steps"] = d.steps;
+  state.counters["error_mm"] = 1000.0 * d.position_error;
+  state.counters["error_mrad"] = 1000.0 * d.orientation_error;
+  state.counters["path_s"] = path.duration();
+}
+BENCHMARK(BM_PoseGoalDryRun1Rad)->Unit(benchmark::kMillisecond);
+
+// A whole decision that ends in joint space: a re-orientation from home the
+// straight path cannot complete (the aim point (-0.8, 1.0, -0.3) m of the
+// RobotLinkNode tests, 0.62 rad), dry run + solve_pose (one restart) + the
+// joint path's workspace check, all at once (the node spreads the IK over
+// its control periods, 150 iterations a period).
+void BM_PoseGoalPlanJointSpace(benchmark::State& state) {
+  const auto& c = link_config();
+  const Eigen::Isometry3d start = kinematics::tool_pose(c.model, c.model.home);
+  // The servo controller's aim (servo::aim_rotation, thesis eq. 6-19..6-22).
+  const Eigen::Vector3d m = start.linear().transpose() * (Eigen::Vector3d(-0.8, 1.0, -0.3) - start.translation());
+  const double alpha = std::atan2(m.y(), m.z());
+  Eigen::Matrix3d rx, ry;
+  rx << 1, 0, 0, 0, std::cos(alpha), std::sin(alpha), 0, -std::sin(alpha), std::cos(alpha);
+  const Eigen::Vector3d m1 = rx.transpose() * m;
+  const double beta = -std::atan2(m1.x(), m1.z());
+  ry << std::cos(beta), 0, -std::sin(beta), 0, 1, 0, std::sin(beta), 0, std::cos(beta);
+  Eigen::Isometry3d goal = start;
+  goal.linear() = start.linear() * rx * ry;
+  const arm::CartesianTrajectory path(start, goal, goal_limits());
+  const Eigen::VectorXd previous = Eigen::VectorXd::Zero(c.model.dof());
+  arm::PoseGoalPlan plan;
+  for (auto _ : state) {
+    plan = arm::plan_pose_goal(c, path, c.model.home, previous);
+    benchmark::DoNotOptimize(plan.dry_run.q.data());
+  }
+  state.counters["joint_space"] = plan.way == arm::PoseGoalPlan::Way::kJointSpace;
+  state.counters["angle_rad"] = Eigen::AngleAxisd(goal.linear() * start.linear().transpose()).angle();
+}
+BENCHMARK(BM_PoseGoalPlanJointSpace)->Unit(benchmark::kMillisecond);
+
+// One slice of the pose-goal IK as the node runs it after each SYNC
+// (ik_iterations_per_period, 150, iterations of kinematics::PoseSolver) on an
+// unreachable goal (the worst case: every start runs out, 9000 iterations =
+// 60 periods).
+void BM_PoseSolverSlice(benchmark::State& state) {
+  const auto& c = link_config();
+  Eigen::Isometry3d goal = kinematics::tool_pose(c.model, c.model.home);
+  goal.translation() = Eigen::Vector3d(0.0, 1.25, -0.3);
+  goal.linear() = Eigen::AngleAxisd(3.14159, Eigen::Vector3d::UnitX()).toRotationMatrix() * goal.linear();
+  kinematics::PoseSolver solver(c.model, goal, c.model.home);
+  for (auto _ : state) {
+    if (solver.done()) {
+      state.PauseTiming();
+      solver = kinematics::PoseSolver(c.model, goal, c.model.home);
+      state.ResumeTiming();
+    }
+    solver.run(c.ik_iterations_per_period);
+  }
+}
+BENCHMARK(BM_PoseSolverSlice)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

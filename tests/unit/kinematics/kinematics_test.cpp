@@ -198,6 +198,40 @@ TEST(DiffIk, ThesisToolPositionsAreReachableTowardTheTree) {
   }
 }
 
+// The resumable solver (the robot link runs it a slice per control period)
+// visits the same starts and iterations as solve_pose: the same answer,
+// bit for bit, whatever the slice size.
+TEST(DiffIk, PoseSolverInSlicesGivesSolvePosesAnswer) {
+  const ArmModel m = k1207i();
+  PoseSolveOptions few;
+  few.max_iterations = 20;  // short starts: the seed's stalls, the first restart's converges
+  const Eigen::Isometry3d reachable = toward_tree(-138, 1015, -223);
+  Eigen::Isometry3d beyond = reachable;
+  beyond.translation() = Eigen::Vector3d(0.0, 3.0, 0.0);  // out of reach
+  for (const auto& target : {reachable, beyond}) {
+    for (const PoseSolveOptions& options : {PoseSolveOptions{}, few}) {
+      const auto whole = solve_pose(m, target, m.home, options);
+      for (int slice : {1, 7, 200}) {
+        PoseSolver solver(m, target, m.home, options);
+        int runs = 0;
+        while (!solver.run(slice)) ++runs;
+        EXPECT_TRUE(solver.done());
+        ASSERT_EQ(solver.solution().has_value(), whole.has_value()) << slice;
+        EXPECT_GE(runs, solver.iterations() / slice - 1);
+        if (whole) {
+          EXPECT_EQ(*solver.solution(), *whole) << slice;
+        } else {
+          EXPECT_EQ(solver.iterations(), (options.restarts + 1) * options.max_iterations);
+        }
+      }
+    }
+  }
+  PoseSolver restarted(m, reachable, m.home, few);
+  restarted.run(1000);
+  ASSERT_TRUE(restarted.solution().has_value());
+  EXPECT_GT(restarted.iterations(), few.max_iterations) << "found after a restart";
+}
+
 TEST(JointLimits, SpeedLimitScalesTheWholeVector) {
   const ArmModel m = k1207i();
   Eigen::VectorXd want = Eigen::VectorXd::Zero(7);
