@@ -117,9 +117,18 @@ std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, c
                                                 const Eigen::VectorXd& solution, std::string* why) {
   const Eigen::VectorXd delta = solution - q;
   const int samples = std::max(20, static_cast<int>(std::ceil(delta.cwiseAbs().maxCoeff() / 0.01)));
+  // The tool's speed along the path per unit of the path parameter (linear,
+  // angular), largest over the samples: what the joint speed limits alone
+  // would let the tool point reach.
+  double dp_ds = 0.0, dr_ds = 0.0;
+  Eigen::Isometry3d previous = kinematics::tool_pose(config.model, q);
   for (int i = 0; i <= samples; ++i) {
     const Eigen::VectorXd qi = q + (static_cast<double>(i) / samples) * delta;
-    const Eigen::Vector3d p = kinematics::tool_pose(config.model, qi).translation();
+    const Eigen::Isometry3d pose = kinematics::tool_pose(config.model, qi);
+    const Eigen::Vector3d p = pose.translation();
+    dp_ds = std::max(dp_ds, (p - previous.translation()).norm() * samples);
+    dr_ds = std::max(dr_ds, Eigen::AngleAxisd(pose.linear() * previous.linear().transpose()).angle() * samples);
+    previous = pose;
     if (!config.workspace.contains(p)) {
       if (why != nullptr)
         *why =
@@ -129,8 +138,17 @@ std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, c
     }
   }
   JointTrajectory path(q, solution, config.model.max_velocity(), config.model.max_acceleration());
+  // The tool's speed limits hold in joint space too: slow the whole motion
+  // down (speeds by f, accelerations by f^2: the same profile, 1/f longer)
+  // until neither the tool point's nor the tool's turning speed exceeds them.
+  const double peak = path.scaling().peak_ds();
+  const double f = std::min({1.0, dp_ds * peak > 0 ? config.limits.linear_speed / (dp_ds * peak) : 1.0,
+                             dr_ds * peak > 0 ? config.limits.angular_speed / (dr_ds * peak) : 1.0});
+  if (f < 1.0)
+    path = JointTrajectory(q, solution, f * config.model.max_velocity(), f * f * config.model.max_acceleration());
   if (why != nullptr)
-    *why = fmt::format("joint space, {:.2f} s, largest joint move {:.2f} rad", path.duration(),
+    *why = fmt::format("joint space, {:.2f} s{}, largest joint move {:.2f} rad", path.duration(),
+                       f < 1.0 ? fmt::format(" (x{:.2f} for the tool's speed limits)", 1.0 / f) : std::string(),
                        delta.cwiseAbs().maxCoeff());
   return path;
 }
