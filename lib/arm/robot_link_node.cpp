@@ -165,14 +165,17 @@ PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajec
   }
   const std::string shortfall = dry_run_shortfall(plan.dry_run);
   const auto solution = kinematics::solve_pose(config.model, trajectory.goal(), q);
-  if (!solution) {
-    plan.why = shortfall + ", and no joint solution was found";
-    return plan;
+  std::string why = "no joint solution was found";
+  if (solution) plan.joints = joint_space_path(config, q, *solution, &why);
+  if (plan.joints) {
+    plan.way = PoseGoalPlan::Way::kJointSpace;
+    plan.why = shortfall + "; " + why;
+  } else if (config.dry_run.near_enough(plan.dry_run.position_error, plan.dry_run.orientation_error)) {
+    plan.way = PoseGoalPlan::Way::kCartesian;
+    plan.why = shortfall + ", and " + why + ": the straight path, as near as it gets";
+  } else {
+    plan.why = shortfall + ", and " + why;
   }
-  std::string why;
-  plan.joints = joint_space_path(config, q, *solution, &why);
-  plan.way = plan.joints ? PoseGoalPlan::Way::kJointSpace : PoseGoalPlan::Way::kUnreachable;
-  plan.why = shortfall + (plan.joints ? "; " : ", and ") + why;
   return plan;
 }
 
@@ -323,7 +326,9 @@ void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const 
     return;
   }
   // The IK runs a slice per control period (continue_planning) while the arm holds.
-  planning_.emplace(Planning{cmd, goal, dry_run_shortfall(dry), kinematics::PoseSolver(config_.model, goal, q_)});
+  planning_.emplace(
+      Planning{cmd, goal, dry_run_shortfall(dry), kinematics::PoseSolver(config_.model, goal, q_), std::nullopt});
+  if (config_.dry_run.near_enough(dry.position_error, dry.orientation_error)) planning_->best_effort.emplace(path);
   active_ = Active::kPlanning;
 }
 
@@ -334,14 +339,17 @@ void RobotLinkNode::continue_planning() {
   if (!p.solver.run(config_.ik_iterations_per_period)) return;
   const Planning done = std::move(p);
   planning_.reset();
-  if (!done.solver.solution()) {
-    pose_goal_unreachable(done.cmd, done.goal,
-                          fmt::format("{}, and no joint solution was found ({} IK iterations)", done.shortfall,
-                                      done.solver.iterations()));
+  std::string why = fmt::format("no joint solution was found ({} IK iterations)", done.solver.iterations());
+  if (done.solver.solution()) joint_traj_ = joint_space_path(config_, q_, *done.solver.solution(), &why);
+  if (!joint_traj_ && done.best_effort) {
+    pose_traj_.emplace(*done.best_effort);
+    active_ = Active::kPoseGoal;
+    traj_start_ = now();
+    count("pose_goals_cartesian");
+    spdlog::info("pose goal {}: {}, and {}: the straight path, as near as it gets", done.cmd.goal_id, done.shortfall,
+                 why);
     return;
   }
-  std::string why;
-  joint_traj_ = joint_space_path(config_, q_, *done.solver.solution(), &why);
   if (!joint_traj_) {
     pose_goal_unreachable(done.cmd, done.goal, done.shortfall + ", and " + why);
     return;

@@ -30,6 +30,14 @@ struct DryRunOptions {
   double settle = 1.0;                  // [s] after the trajectory's end
   double position_tolerance = 0.002;    // [m]
   double orientation_tolerance = 0.01;  // [rad]
+  // A straight path that stops this near the goal, when the joint space has
+  // no way either, runs anyway (the arm gets as close as it can; the
+  // controller decides what short means) rather than being refused.
+  double near_enough_position = 0.02;     // [m]
+  double near_enough_orientation = 0.05;  // [rad]
+  bool near_enough(double position_error, double orientation_error) const {
+    return position_error <= near_enough_position && orientation_error <= near_enough_orientation;
+  }
 };
 
 struct RobotLinkConfig {
@@ -156,6 +164,7 @@ class RobotLinkNode final : public rt::Node {
     Eigen::Isometry3d goal;
     std::string shortfall;  // dry_run_shortfall
     kinematics::PoseSolver solver;
+    std::optional<CartesianTrajectory> best_effort;  // the straight path, if its dry run ended near enough
   };
 
   void tick();

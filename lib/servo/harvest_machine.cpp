@@ -314,6 +314,11 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       // fruit is out of its reach in that direction; others may not be.
       fail_fruit(fruit_outcome_t::UNREACHABLE, "the arm could not turn to it (" + why + ")", false, now, out);
       break;
+    case State::kBackoff:
+      // Backing off for a second IR attempt is blocked (a joint limit next to
+      // the canopy): give this fruit up as for an IR that never triggered.
+      fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered (back-off " + why + ")", true, now, out);
+      break;
     case State::kRetreat:
       note_ = "retreat " + why + ", returning home directly";
       start_goal(cfg_.home_pose, State::kReturn, now, out);

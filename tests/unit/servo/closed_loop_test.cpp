@@ -369,6 +369,24 @@ TEST(ClosedLoop, IrFoldBackDoesNotSpeedTheArmIntoTheFruit) {
   EXPECT_LT(fastest_near, 0.25) << "m/s";
 }
 
+// The back-off for the second IR attempt cannot be completed (the arm is
+// blocked next to the canopy): the fruit is given up, the arm retreats and
+// returns home; no fault.
+TEST(ClosedLoop, BlockedBackOffGivesTheFruitUpWithoutAFault) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kBackoff, 30.0)) << loop.ctrl.machine().summary();
+  loop.spec.arm_ignores_goals_after_s = 0.0;
+  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 10.0)) << loop.ctrl.machine().summary();
+  loop.spec.arm_ignores_goals_after_s.reset();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 30.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered (back-off stalled)");
+  const auto states = published_states(loop);
+  EXPECT_EQ(std::count(states.begin(), states.end(), "FAULT"), 0);
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
