@@ -379,7 +379,11 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
     finished_.insert(fruit_id);
     const Eigen::Vector3d at = current_ && current_->id == fruit_id ? current_->selected_from : target;
     finished_at_[fruit_id] = at;
-    if (outcome != fruit_outcome_t::PICKED) given_up_.push_back(at);
+    if (outcome != fruit_outcome_t::PICKED) {
+      given_up_.push_back(at);
+      if (current_ && current_->id == fruit_id && current_->aimed_along_sight && current_->sight)
+        given_up_sights_.push_back(current_->sight->direction);
+    }
   }
   note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
   out.status_changed = true;
@@ -531,9 +535,16 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
         record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, why, now, now, out);
         continue;
       }
+      if (std::any_of(given_up_sights_.begin(), given_up_sights_.end(), [&](const Eigen::Vector3d& d) {
+            return std::acos(std::clamp(d.dot(f.sight->direction), -1.0, 1.0)) <= cfg_.same_sight_angle;
+          })) {
+        finished_.insert(t.fruit_id);  // the same line of sight, given up before
+        finished_at_[t.fruit_id] = p;
+        continue;
+      }
       const double s = std::clamp((p - f.sight->origin).dot(f.sight->direction), f.sight->near, f.sight->far);
       f.estimate = sight_aim(*f.sight, s, tool().translation());
-      f.depth_doubtful = true;
+      f.depth_doubtful = f.aimed_along_sight = true;
     }
     // Fruit whose fixed-camera depth is plausible first, then the doubtful ones.
     if (best == nullptr || std::make_tuple(f.depth_doubtful, t.cost, t.fruit_id) <

@@ -112,6 +112,7 @@ class HarvestMachine {
     // near one): aimed at its line of sight instead, until the camera-in-hand
     // measures it.
     bool depth_doubtful = false;
+    bool aimed_along_sight = false;  // selected with a doubtful depth (stays when the hand measures it)
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -199,6 +200,10 @@ class HarvestMachine {
   // tracker gives a fruit a new id after the arm has hidden it, and the same
   // fruit must not be tried again under its new id.
   std::vector<Eigen::Vector3d> given_up_;
+  // Lines of sight (unit directions from the fixed camera) of fruit given up
+  // that had been aimed at along them: a doubtful depth jumps from image to
+  // image by far more than same_fruit_distance, the direction does not.
+  std::vector<Eigen::Vector3d> given_up_sights_;
   // Where each finished id was (fixed camera, at selection): the tracker may
   // hand a finished fruit's id on to another fruit (a neighbour once the fruit
   // is picked), which is then a new fruit, not a finished one.

@@ -102,6 +102,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
   c.min_ahead_of_home = n.get("min_ahead_of_home", c.min_ahead_of_home, {-10.0, 10.0});
   c.same_fruit_distance = n.get("same_fruit_distance", c.same_fruit_distance, nonneg);
+  c.same_sight_angle = n.get("same_sight_angle", c.same_sight_angle, {0.0, 0.5});
   c.reused_id_distance = n.get("reused_id_distance", c.reused_id_distance, nonneg);
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");

@@ -83,6 +83,7 @@ struct ServoConfig {
   double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
   double min_ahead_of_home = 0.05;     // [m] a target must lie this far ahead of the tool at home, along its axis
   double same_fruit_distance = 0.05;   // [m] a fixed-camera target this close to a given-up one is that fruit
+  double same_sight_angle = 0.02;      // [rad] ... or, with a doubtful depth, its line of sight this close to one
   double reused_id_distance = 0.15;    // [m] a finished id seen this far from where it finished is another fruit
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();

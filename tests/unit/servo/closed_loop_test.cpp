@@ -639,6 +639,26 @@ TEST(ClosedLoop, FixedCameraDepthFarTooDeepIsTriedAlongTheLineOfSight) { expect_
 
 TEST(ClosedLoop, FixedCameraDepthFarTooNearIsTriedAlongTheLineOfSight) { expect_picked_along_the_line_of_sight(0.6); }
 
+// A target with a doubtful depth given up is remembered by its line of sight:
+// its depth jumps by decimetres from image to image, so under a new fixed-
+// camera id its position matches nothing given up, but its direction does.
+TEST(ClosedLoop, ADoubtfulTargetGivenUpIsNotTriedAgainUnderANewId) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.01, -0.02, 0.03);
+  spec.fixed_depth_scale = 2.5;
+  spec.fixed_depth_jitter = 0.3;
+  spec.hide_hand_after_s = 0.0;  // never seen by the camera-in-hand
+  spec.fixed_ids_change_after_s = 4.0;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  ASSERT_EQ(loop.ctrl.machine().outcomes().size(), 1u) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::LOST);
+  EXPECT_GT(loop.t(), 4.0);  // the renumbered target was seen and skipped
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    EXPECT_NE(st.current_fruit_id, 1001);
+}
+
 TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachable) {
   // Beyond the box and the reach shell, but seen nearer by the fixed camera:
   // tried along its line of sight, measured by the camera-in-hand, given up

@@ -162,8 +162,9 @@ void WorldDouble::publish_fixed() {
         spec_.fixed_ids_change_after_s && rt::to_seconds(now() - start_) >= *spec_.fixed_ids_change_after_s;
     t.fruit_id = renumbered ? f.id + 1000 : fixed_id(i);
     t.source_camera = "fixed";
-    const Eigen::Vector3d p =
-        spec_.fixed_camera + spec_.fixed_depth_scale * (f.position + spec_.fixed_error - spec_.fixed_camera);
+    std::uniform_real_distribution<double> jitter(-spec_.fixed_depth_jitter, spec_.fixed_depth_jitter);
+    const double scale = spec_.fixed_depth_scale + (spec_.fixed_depth_jitter > 0 ? jitter(rng_) : 0.0);
+    const Eigen::Vector3d p = spec_.fixed_camera + scale * (f.position + spec_.fixed_error - spec_.fixed_camera);
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
     t.covariance_base[0] = t.covariance_base[4] = t.covariance_base[8] = 0.05 * 0.05;
     t.diameter_m = 0.075;

@@ -84,6 +84,7 @@ struct WorldSpec {
   // depth error along its line of sight: estimate = C + scale (truth + error - C).
   Eigen::Vector3d fixed_camera = Eigen::Vector3d(-0.2413, 0.2286, -0.4005);
   double fixed_depth_scale = 1.0;
+  double fixed_depth_jitter = 0.0;     // the scale varies by up to +- this from image to image
   bool fixed_camera_unknown = false;   // TARGETS without the camera's position (logs from before the field)
   bool hand_ids_unassociated = false;  // the reconstructor matched no hand detection to a fixed-camera fruit
   double hand_depth_scale = 1.0;       // estimated / true depth in the hand camera
