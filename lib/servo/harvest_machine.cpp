@@ -379,10 +379,11 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
     finished_.insert(fruit_id);
     const Eigen::Vector3d at = current_ && current_->id == fruit_id ? current_->selected_from : target;
     finished_at_[fruit_id] = at;
+    const bool ours = current_ && current_->id == fruit_id;
+    if (ours && current_->sight) finished_sight_[fruit_id] = current_->sight->direction;
     if (outcome != fruit_outcome_t::PICKED) {
       given_up_.push_back(at);
-      if (current_ && current_->id == fruit_id && current_->aimed_along_sight && current_->sight)
-        given_up_sights_.push_back(current_->sight->direction);
+      if (ours && current_->sight) given_up_sights_.push_back(current_->sight->direction);
     }
   }
   note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
@@ -504,17 +505,30 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   std::optional<Fruit> chosen;
   for (const auto& t : view.targets) {
     const Eigen::Vector3d p = vec(t.position_base);
+    // The fixed camera's line of sight to it: a depth from the apparent size
+    // may jump by decimetres from image to image, the direction does not.
+    std::optional<Eigen::Vector3d> sight;
+    if (view.camera_known && (p - vec(view.camera_position_base)).norm() > 1e-6)
+      sight = (p - vec(view.camera_position_base)).normalized();
+    auto along = [&](const Eigen::Vector3d& d) {
+      return sight && std::acos(std::clamp(d.dot(*sight), -1.0, 1.0)) <= cfg_.same_sight_angle;
+    };
     if (finished_.count(t.fruit_id)) {
       const auto at = finished_at_.find(t.fruit_id);
-      if (at == finished_at_.end() || (at->second - p).norm() <= cfg_.reused_id_distance) continue;
+      const auto seen = finished_sight_.find(t.fruit_id);
+      if (at == finished_at_.end() || (at->second - p).norm() <= cfg_.reused_id_distance ||
+          (seen != finished_sight_.end() && along(seen->second)))
+        continue;
       // Far from where this id was finished: another fruit under a reused id.
       finished_.erase(t.fruit_id);
       finished_at_.erase(t.fruit_id);
+      finished_sight_.erase(t.fruit_id);
       attempts_.erase(t.fruit_id);
     }
     if (attempts_[t.fruit_id] >= cfg_.max_attempts_per_fruit) continue;
     if (std::any_of(given_up_.begin(), given_up_.end(),
-                    [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; })) {
+                    [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; }) ||
+        std::any_of(given_up_sights_.begin(), given_up_sights_.end(), along)) {
       finished_.insert(t.fruit_id);  // a fruit already given up, seen again under a new id
       finished_at_[t.fruit_id] = p;
       continue;
@@ -535,16 +549,9 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
         record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, why, now, now, out);
         continue;
       }
-      if (std::any_of(given_up_sights_.begin(), given_up_sights_.end(), [&](const Eigen::Vector3d& d) {
-            return std::acos(std::clamp(d.dot(f.sight->direction), -1.0, 1.0)) <= cfg_.same_sight_angle;
-          })) {
-        finished_.insert(t.fruit_id);  // the same line of sight, given up before
-        finished_at_[t.fruit_id] = p;
-        continue;
-      }
       const double s = std::clamp((p - f.sight->origin).dot(f.sight->direction), f.sight->near, f.sight->far);
       f.estimate = sight_aim(*f.sight, s, tool().translation());
-      f.depth_doubtful = f.aimed_along_sight = true;
+      f.depth_doubtful = true;
     }
     // Fruit whose fixed-camera depth is plausible first, then the doubtful ones.
     if (best == nullptr || std::make_tuple(f.depth_doubtful, t.cost, t.fruit_id) <
@@ -961,6 +968,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         case State::kBackoff:
           ++ir_attempt_;
           ir_passing_leaf_ = false;
+          ir_progress_at_ = now;
+          ir_progress_from_ = tool().translation();
           enter(State::kIrApproach, now, out);
           break;
         case State::kDetach:
@@ -1018,6 +1027,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       if (remaining <= cfg_.ir_switch_distance) {
         ir_attempt_ = 1;
         ir_passing_leaf_ = false;
+        ir_progress_at_ = now;
+        ir_progress_from_ = t.translation();
         ir_start_ = t.translation();
         note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm";
         enter(State::kIrApproach, now, out);
@@ -1055,8 +1066,16 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         enter(State::kGrasp, now, out);
         return;
       }
-      if ((t.translation() - ir_start_).norm() > cfg_.ir_max_travel || ahead < -cfg_.ir_overshoot) {
-        on_timeout(now, out);  // out of travel, or past the fruit: same as the IR timeout
+      // Progress is 5 mm of tool motion: a tool that makes none for
+      // timeouts.stall is blocked (the arm at the edge of its reach, a joint
+      // limit) and waits out nothing.
+      if ((t.translation() - ir_progress_from_).norm() > 0.005) {
+        ir_progress_from_ = t.translation();
+        ir_progress_at_ = now;
+      }
+      const bool blocked = now - ir_progress_at_ > rt::from_seconds(cfg_.timeouts.stall);
+      if ((t.translation() - ir_start_).norm() > cfg_.ir_max_travel || ahead < -cfg_.ir_overshoot || blocked) {
+        on_timeout(now, out);  // out of travel, past the fruit or blocked: same as the IR timeout
         return;
       }
       if (!ir_fresh) {

@@ -112,7 +112,6 @@ class HarvestMachine {
     // near one): aimed at its line of sight instead, until the camera-in-hand
     // measures it.
     bool depth_doubtful = false;
-    bool aimed_along_sight = false;  // selected with a doubtful depth (stays when the hand measures it)
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -200,10 +199,11 @@ class HarvestMachine {
   // tracker gives a fruit a new id after the arm has hidden it, and the same
   // fruit must not be tried again under its new id.
   std::vector<Eigen::Vector3d> given_up_;
-  // Lines of sight (unit directions from the fixed camera) of fruit given up
-  // that had been aimed at along them: a doubtful depth jumps from image to
-  // image by far more than same_fruit_distance, the direction does not.
+  // Lines of sight (unit directions from the fixed camera) of fruit given up,
+  // and of each finished id: a doubtful depth jumps from image to image by
+  // far more than same_fruit_distance, the direction does not.
   std::vector<Eigen::Vector3d> given_up_sights_;
+  std::map<int, Eigen::Vector3d> finished_sight_;
   // Where each finished id was (fixed camera, at selection): the tracker may
   // hand a finished fruit's id on to another fruit (a neighbour once the fruit
   // is picked), which is then a new fruit, not a finished one.
@@ -217,7 +217,9 @@ class HarvestMachine {
   double goal_best_rotation_ = 0.0;  // ... and its orientation [rad]
   rt::Micros goal_progress_at_ = 0;  // when it last got measurably closer
   int ir_attempt_ = 0;
-  bool ir_passing_leaf_ = false;  // this IR attempt has gone past a leaf (noted once)
+  bool ir_passing_leaf_ = false;                                // this IR attempt has gone past a leaf (noted once)
+  rt::Micros ir_progress_at_ = 0;                               // when the tool last moved 5 mm under IR guidance ...
+  Eigen::Vector3d ir_progress_from_ = Eigen::Vector3d::Zero();  // ... from here
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
 };
 

@@ -387,6 +387,23 @@ TEST(ClosedLoop, BlockedBackOffGivesTheFruitUpWithoutAFault) {
   EXPECT_EQ(std::count(states.begin(), states.end(), "FAULT"), 0);
 }
 
+// Under IR guidance the arm stops moving (the edge of its reach, a joint
+// limit): after timeouts.stall without 5 mm of progress it is treated as an
+// IR attempt that failed, not waited out for the whole IR timeout.
+TEST(ClosedLoop, BlockedIrApproachIsNotWaitedOut) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 30.0)) << loop.ctrl.machine().summary();
+  const double blocked_at = loop.t();
+  loop.spec.arm_blocked_after_s = blocked_at;
+  while (loop.ctrl.machine().state() == State::kIrApproach && loop.t() < blocked_at + 20.0) loop.at(loop.t() + 0.01);
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kBackoff);
+  EXPECT_LT(loop.t() - blocked_at, loop.cfg.timeouts.stall + 0.5);
+  EXPECT_LT(loop.cfg.timeouts.stall + 0.5, loop.cfg.timeouts.ir_approach);
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
@@ -657,6 +674,21 @@ TEST(ClosedLoop, ADoubtfulTargetGivenUpIsNotTriedAgainUnderANewId) {
   EXPECT_GT(loop.t(), 4.0);  // the renumbered target was seen and skipped
   for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
     EXPECT_NE(st.current_fruit_id, 1001);
+}
+
+// ... and under its own id, whose jumping estimate lands more than
+// reused_id_distance from where it was given up: still the same line of
+// sight, so not a new fruit.
+TEST(ClosedLoop, AFinishedIdWithAJumpingDepthIsNotANewFruit) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.01, -0.02, 0.03);
+  spec.fixed_depth_scale = 2.5;
+  spec.fixed_depth_jitter = 0.3;
+  spec.hide_hand_after_s = 0.0;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.ctrl.machine().outcomes().size(), 1u) << loop.ctrl.machine().summary();
 }
 
 TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachable) {

@@ -83,6 +83,7 @@ void ArmDouble::step() {
     const Eigen::AngleAxisd err(goal.rotation() * tool_.rotation().transpose());
     w = clamp_norm(err.axis() * err.angle() / dt, cmd_->max_angular_speed);
   }
+  if (spec_.arm_blocked_after_s && t >= *spec_.arm_blocked_after_s) v = w = Eigen::Vector3d::Zero();
   tool_.translation() += v * dt;
   if (w.norm() > 0) tool_.linear() = Eigen::AngleAxisd(w.norm() * dt, w.normalized()) * tool_.rotation();
 

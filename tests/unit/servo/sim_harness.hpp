@@ -103,6 +103,7 @@ struct WorldSpec {
   bool gripper_misses = false;                      // closes on nothing
   bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
   std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
+  std::optional<double> arm_blocked_after_s;        // no command moves the arm any more (it reports MOVING)
   bool fruit_slips = false;                         // a held fruit falls out of the gripper 0.2 s after the grasp
   bool fixed_camera_silent = false;                 // no fixed-camera TARGETS at all
   bool fixed_ids_follow_order =
