@@ -153,6 +153,18 @@ std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, c
   return path;
 }
 
+std::optional<JointTrajectory> home_path(const RobotLinkConfig& config, const Eigen::VectorXd& q,
+                                         const Eigen::Isometry3d& goal, std::string* why) {
+  // The arm's home posture is a known joint solution of the home pose: going
+  // home must not depend on what an IK search from wherever the arm is finds.
+  const kinematics::Twist e = kinematics::pose_error(goal, kinematics::tool_pose(config.model, config.model.home));
+  if (e.head<3>().norm() > 1e-3 || e.tail<3>().norm() > 1e-2) return std::nullopt;
+  std::string how;
+  auto path = joint_space_path(config, q, config.model.home, &how);
+  if (path && why != nullptr) *why = "to the home posture, " + how;
+  return path;
+}
+
 PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
                             const Eigen::VectorXd& q, const Eigen::VectorXd& previous) {
   PoseGoalPlan plan;
@@ -164,6 +176,12 @@ PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajec
     return plan;
   }
   const std::string shortfall = dry_run_shortfall(plan.dry_run);
+  std::string home_why;
+  if ((plan.joints = home_path(config, q, trajectory.goal(), &home_why))) {
+    plan.way = PoseGoalPlan::Way::kJointSpace;
+    plan.why = shortfall + "; " + home_why;
+    return plan;
+  }
   const auto solution = kinematics::solve_pose(config.model, trajectory.goal(), q);
   std::string why = "no joint solution was found";
   if (solution) plan.joints = joint_space_path(config, q, *solution, &why);
@@ -323,6 +341,13 @@ void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const 
     count("pose_goals_cartesian");
     spdlog::info("pose goal {}: Cartesian (the straight path's dry run ends {:.1f} mm, {:.3f} rad from it)",
                  cmd.goal_id, 1000.0 * dry.position_error, dry.orientation_error);
+    return;
+  }
+  std::string home_why;
+  if ((joint_traj_ = home_path(config_, q_, goal, &home_why))) {
+    active_ = Active::kPoseGoalInJoints;
+    count("pose_goals_joint_space");
+    spdlog::info("pose goal {}: {}; {}", cmd.goal_id, dry_run_shortfall(dry), home_why);
     return;
   }
   // The IK runs a slice per control period (continue_planning) while the arm holds.

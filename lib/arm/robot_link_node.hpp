@@ -125,6 +125,11 @@ std::string dry_run_shortfall(const PoseGoalDryRun& dry_run);
 // acceleration limits, as for TYPE_JOINT_GOAL (`why` gives its duration).
 std::optional<JointTrajectory> joint_space_path(const RobotLinkConfig& config, const Eigen::VectorXd& q,
                                                 const Eigen::VectorXd& solution, std::string* why);
+// The joint-space way to the arm's home posture (config.model.home) when
+// `goal` is its home pose (1 mm, 0.01 rad), else none: a known joint
+// solution, so going home never waits on, or fails in, an IK search.
+std::optional<JointTrajectory> home_path(const RobotLinkConfig& config, const Eigen::VectorXd& q,
+                                         const Eigen::Isometry3d& goal, std::string* why = nullptr);
 
 // How a new pose goal is executed: the Cartesian trajectory if its dry run
 // reaches the goal; else, if kinematics::solve_pose (seeded at the current

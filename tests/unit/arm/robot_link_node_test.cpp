@@ -1088,6 +1088,24 @@ TEST(RobotLinkNode, ReorientationsFromHomeOverAGrid) {
   EXPECT_LE(lost_beside, 3);
 }
 
+// Going home is a known joint solution: the joint-space way to the home
+// posture, whatever joints the arm is at; any other goal gets none.
+TEST(RobotLinkNode, HomePoseGoalHasTheHomePostureAsItsJointWay) {
+  const RobotLinkConfig c = default_config();
+  const Eigen::Isometry3d home = kinematics::tool_pose(c.model, c.model.home);
+  Eigen::VectorXd q = c.model.home;
+  q[0] += 0.05;
+  q[3] -= 0.1;
+  q[5] += 0.1;
+  const auto path = home_path(c, q, home);
+  ASSERT_TRUE(path);
+  EXPECT_TRUE(path->position(path->duration()).isApprox(c.model.home, 1e-12));
+  EXPECT_TRUE(path->position(0.0).isApprox(q, 1e-12));
+  Eigen::Isometry3d elsewhere = home;
+  elsewhere.translation().y() += 0.05;
+  EXPECT_FALSE(home_path(c, q, elsewhere));
+}
+
 TEST(RobotLinkNode, ShutdownStopsAndDisablesTheDrives) {
   Rig rig(default_config());
   rig.start();
