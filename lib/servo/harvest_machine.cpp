@@ -740,6 +740,18 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
 MachineOutput HarvestMachine::on_ir(const ir_range_t& msg, rt::Micros now) {
   ir_ = msg;
   ir_rx_ = now;
+  // A triangulating IR sensor folds back nearer than its peak: a fruit inside
+  // reads far. Moving forward, a reading just above the grasp range followed
+  // by one far beyond it is that fold-back (nothing on the axis jumps away),
+  // even if no sample fell inside the few millimetres of the grasp range.
+  constexpr double kNear = 0.02, kJump = 0.03;  // [m]
+  if (state_ == State::kIrApproach && msg.validity == ir_range_t::VALID) {
+    if (msg.range_m <= cfg_.ir_grasp_range + kNear) {
+      ir_last_near_ = msg.range_m;
+    } else if (ir_last_near_ && msg.range_m > *ir_last_near_ + kJump) {
+      ir_folded_ = true;
+    }
+  }
   return {};
 }
 
@@ -970,6 +982,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
           ir_passing_leaf_ = false;
           ir_progress_at_ = now;
           ir_progress_from_ = tool().translation();
+          ir_folded_ = false;
+          ir_last_near_.reset();
           enter(State::kIrApproach, now, out);
           break;
         case State::kDetach:
@@ -1029,6 +1043,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         ir_passing_leaf_ = false;
         ir_progress_at_ = now;
         ir_progress_from_ = t.translation();
+        ir_folded_ = false;
+        ir_last_near_.reset();
         ir_start_ = t.translation();
         note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm";
         enter(State::kIrApproach, now, out);
@@ -1042,9 +1058,10 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
     }
     case State::kIrApproach: {
       const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
-      const bool at_grasp_range = ir_fresh &&
-                                  (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
-                                  ir_->range_m <= cfg_.ir_grasp_range;
+      const bool at_grasp_range =
+          (ir_fresh && (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
+           ir_->range_m <= cfg_.ir_grasp_range) ||
+          ir_folded_;
       // Fruit centre ahead of the tool point by the camera-in-hand's estimate.
       const Eigen::Isometry3d t = tool();
       const double ahead = (current_->estimate - t.translation()).dot(t.rotation().col(2));
@@ -1052,6 +1069,10 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       // reads like the fruit. A reading at the grasp range while the estimate
       // puts the fruit much farther is that leaf; the approach goes on past it.
       const bool leaf = at_grasp_range && !current_->depth_doubtful && ahead > cfg_.ir_vision_agreement;
+      if (leaf) {  // the leaf, not the fruit
+        ir_folded_ = false;
+        ir_last_near_.reset();
+      }
       if (leaf && !ir_passing_leaf_) {
         ir_passing_leaf_ = true;
         note_ = "IR at " + std::to_string(std::lround(ir_->range_m * 1000)) + " mm, fruit " +

@@ -217,8 +217,10 @@ class HarvestMachine {
   double goal_best_rotation_ = 0.0;  // ... and its orientation [rad]
   rt::Micros goal_progress_at_ = 0;  // when it last got measurably closer
   int ir_attempt_ = 0;
-  bool ir_passing_leaf_ = false;                                // this IR attempt has gone past a leaf (noted once)
-  rt::Micros ir_progress_at_ = 0;                               // when the tool last moved 5 mm under IR guidance ...
+  bool ir_passing_leaf_ = false;        // this IR attempt has gone past a leaf (noted once)
+  std::optional<double> ir_last_near_;  // last IR range just above the grasp range in this attempt [m]
+  bool ir_folded_ = false;              // ... followed by a jump far beyond it: the sensor folded back
+  rt::Micros ir_progress_at_ = 0;       // when the tool last moved 5 mm under IR guidance ...
   Eigen::Vector3d ir_progress_from_ = Eigen::Vector3d::Zero();  // ... from here
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
 };

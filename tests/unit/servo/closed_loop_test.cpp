@@ -404,6 +404,22 @@ TEST(ClosedLoop, BlockedIrApproachIsNotWaitedOut) {
   EXPECT_LT(loop.cfg.timeouts.stall + 0.5, loop.cfg.timeouts.ir_approach);
 }
 
+// The sensor folds back 1 mm above the grasp range, so no reading ever falls
+// inside it: a reading just above it followed by a jump to far is the fruit
+// inside the fold-back, and the gripper closes on it.
+TEST(ClosedLoop, IrFoldBackJumpIsTheFruitInsideTheGraspRange) {
+  WorldSpec spec = experiment_one();
+  spec.ir_fold_back_below_m = 0.036;
+  ServoConfig cfg = test_config();
+  cfg.ir_grasp_range = 0.035;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+  const auto states = published_states(loop);
+  EXPECT_EQ(std::count(states.begin(), states.end(), "BACKOFF"), 0);
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
