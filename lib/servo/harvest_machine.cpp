@@ -656,7 +656,10 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     hand_target_px_ = Eigen::Vector2d(t.u_px, t.v_px);  // the next image's prediction, see on_hand_fruit
     hand_target_rx_ = now;
   }
-  if (!pixel_ || msg.header.utime != pixel_->utime) return out;
+  // A fruit cut by the image border, or filling most of the image (near,
+  // under IR guidance), has no apparent size to take a depth from: the
+  // estimate stays the last one that had (eq. 6-15).
+  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_) return out;
   constexpr double kSamePixel = 0.5;  // [px] the reconstructor copies the detection's centroid
   for (const auto& t : msg.targets) {
     if ((Eigen::Vector2d(t.u_px, t.v_px) - Eigen::Vector2d(pixel_->u, pixel_->v)).norm() > kSamePixel) continue;
@@ -712,6 +715,11 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
   if (match != nullptr) {
     pixel_ = PixelMeasurement{match->u_px, match->v_px, msg.header.utime};
     pixel_rx_ = now;
+    constexpr int kBorder = 2;            // [px]
+    constexpr double kMostOfImage = 0.8;  // of the image height
+    const auto& b = match->bbox_px;
+    pixel_whole_ = b[0] >= kBorder && b[1] >= kBorder && b[0] + b[2] <= msg.image_width - kBorder &&
+                   b[1] + b[3] <= msg.image_height - kBorder && match->diameter_px <= kMostOfImage * msg.image_height;
   }
   return out;
 }

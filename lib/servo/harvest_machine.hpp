@@ -189,6 +189,7 @@ class HarvestMachine {
   rt::Micros ir_rx_ = 0;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
+  bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
   std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 

@@ -420,6 +420,20 @@ TEST(ClosedLoop, IrFoldBackJumpIsTheFruitInsideTheGraspRange) {
   EXPECT_EQ(std::count(states.begin(), states.end(), "BACKOFF"), 0);
 }
 
+// Near the fruit it fills the hand image and its depth from size is 20 cm
+// off: that is not taken as the estimate, so the real IR trigger is not
+// mistaken for a leaf (the reference recording failed its grasp so).
+TEST(ClosedLoop, HandDepthOfAFruitFillingTheImageIsNotUsed) {
+  WorldSpec spec = experiment_one();
+  spec.hand_depth_error_when_filling = 0.2;
+  ServoConfig cfg = test_config();
+  cfg.ir_grasp_range = 0.035;  // as in the simulator sets: the fruit fills the image before the IR triggers
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+}
+
 TEST(ClosedLoop, IrNeverTriggersBacksOffRetriesOnceThenFails) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;

@@ -1,5 +1,6 @@
 #include "sim_harness.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "harvest/fruit_detections_t.hpp"
@@ -213,11 +214,20 @@ void WorldDouble::publish_hand() {
     d.u_px = static_cast<float>(px.x());
     d.v_px = static_cast<float>(px.y());
     d.diameter_px = static_cast<float>(diameter_px);
+    // Bounding box of the visible part, clipped to the image.
+    const double x0 = std::max(0.0, px.x() - diameter_px / 2), y0 = std::max(0.0, px.y() - diameter_px / 2);
+    const double x1 = std::min<double>(k.width, px.x() + diameter_px / 2);
+    const double y1 = std::min<double>(k.height, px.y() + diameter_px / 2);
+    d.bbox_px[0] = static_cast<int32_t>(x0);
+    d.bbox_px[1] = static_cast<int32_t>(y0);
+    d.bbox_px[2] = static_cast<int32_t>(x1 - x0);
+    d.bbox_px[3] = static_cast<int32_t>(y1 - y0);
     d.confidence = 1.0f;
     det.fruits.push_back(d);
     // The reconstructor: the software's calibration and a biased depth (eq. 6-14, 6-15).
     const Eigen::Vector2d m = undistort_pixel(spec_.assumed_hand, px.x(), px.y());
-    const double z = pc.z() * spec_.hand_depth_scale;
+    double z = pc.z() * spec_.hand_depth_scale;
+    if (spec_.hand_depth_error_when_filling && diameter_px > 0.8 * k.height) z += *spec_.hand_depth_error_when_filling;
     const Eigen::Vector3d est_cam(m.x() * z, m.y() * z, z);
     const Eigen::Vector3d est_base = cam * est_cam;
     target_t ht{};

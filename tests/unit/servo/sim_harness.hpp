@@ -88,7 +88,10 @@ struct WorldSpec {
   bool fixed_camera_unknown = false;   // TARGETS without the camera's position (logs from before the field)
   bool hand_ids_unassociated = false;  // the reconstructor matched no hand detection to a fixed-camera fruit
   double hand_depth_scale = 1.0;       // estimated / true depth in the hand camera
-  double pixel_noise = 0.5;            // uniform +- [px]
+  // [m] added to the hand depth when the fruit fills most of the image (a
+  // depth from size there is meaningless; the controller must not use it)
+  std::optional<double> hand_depth_error_when_filling;
+  double pixel_noise = 0.5;  // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
   std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
