@@ -1076,7 +1076,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       // The IR sees the first thing on its axis: a leaf in front of the fruit
       // reads like the fruit. A reading at the grasp range while the estimate
       // puts the fruit much farther is that leaf; the approach goes on past it.
-      const bool leaf = at_grasp_range && !current_->depth_doubtful && ahead > cfg_.ir_vision_agreement;
+      const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && !current_->depth_doubtful &&
+                        ahead > cfg_.ir_vision_agreement;
       if (leaf) {  // the leaf, not the fruit
         ir_folded_ = false;
         ir_last_near_.reset();

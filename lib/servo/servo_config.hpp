@@ -71,20 +71,21 @@ struct ServoConfig {
   double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
   double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
   double ir_overshoot = 0.05;          // [m] ... or past the estimated fruit centre by this much
-  double ir_vision_agreement = 0.07;   // [m] an IR grasp reading counts only with the fruit centre no farther ahead
-  int ir_attempts = 2;                 // IR approaches per fruit (thesis: retry once)
-  double orient_tolerance = 0.02;      // [rad] orientation reached
-  double position_tolerance = 0.005;   // [m] pose goal reached
-  double retreat_distance = 0.15;      // [m] pull back along the tool axis after a failure
-  double pull_distance = 0.10;         // [m] detach: pull back along the tool axis ...
-  double twist_angle = 0.5236;         // [rad] ... while twisting about it
-  bool release_at_detach = true;       // open the gripper where the pull ended (false: carry it to drop_pose first)
-  int max_attempts_per_fruit = 1;      // a failed fruit is retried at most this many times in total
-  double association_gate_px = 80.0;   // hand detection must lie this close to the predicted pixel
-  double min_ahead_of_home = 0.05;     // [m] a target must lie this far ahead of the tool at home, along its axis
-  double same_fruit_distance = 0.05;   // [m] a fixed-camera target this close to a given-up one is that fruit
-  double same_sight_angle = 0.02;      // [rad] ... or, with a doubtful depth, its line of sight this close to one
-  double reused_id_distance = 0.15;    // [m] a finished id seen this far from where it finished is another fruit
+  double ir_vision_agreement =
+      0.0;              // [m] > 0: an IR grasp reading counts only with the fruit centre no farther ahead (0: off)
+  int ir_attempts = 2;  // IR approaches per fruit (thesis: retry once)
+  double orient_tolerance = 0.02;     // [rad] orientation reached
+  double position_tolerance = 0.005;  // [m] pose goal reached
+  double retreat_distance = 0.15;     // [m] pull back along the tool axis after a failure
+  double pull_distance = 0.10;        // [m] detach: pull back along the tool axis ...
+  double twist_angle = 0.5236;        // [rad] ... while twisting about it
+  bool release_at_detach = true;      // open the gripper where the pull ended (false: carry it to drop_pose first)
+  int max_attempts_per_fruit = 1;     // a failed fruit is retried at most this many times in total
+  double association_gate_px = 80.0;  // hand detection must lie this close to the predicted pixel
+  double min_ahead_of_home = 0.05;    // [m] a target must lie this far ahead of the tool at home, along its axis
+  double same_fruit_distance = 0.05;  // [m] a fixed-camera target this close to a given-up one is that fruit
+  double same_sight_angle = 0.02;     // [rad] ... or, with a doubtful depth, its line of sight this close to one
+  double reused_id_distance = 0.15;   // [m] a finished id seen this far from where it finished is another fruit
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();

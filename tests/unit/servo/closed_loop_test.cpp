@@ -331,7 +331,10 @@ TEST(ClosedLoop, IrGuidedApproachSlowsDownNearTheFruit) {
 TEST(ClosedLoop, LeafInFrontOfTheFruitIsPassedNotGraspedAt) {
   WorldSpec spec = experiment_one();
   spec.leaf_before_fruit_m = 0.15;
-  Loop loop(spec);
+  ServoConfig cfg = test_config();
+  ASSERT_EQ(cfg.ir_vision_agreement, 0.0);  // off by default (docs/servo-controller.md)
+  cfg.ir_vision_agreement = 0.07;
+  Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
