@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "geometry/pose_msg.hpp"
 #include "runtime/channels.hpp"
 
 namespace harvest::arm {
@@ -18,15 +19,6 @@ using canopen::MasterPhase;
 Eigen::Vector3d vec3(const config::Node& n, const std::string& key, const std::vector<double>& fallback) {
   const auto v = n.numbers(key, fallback, 3);
   return {v[0], v[1], v[2]};
-}
-
-void to_pose(const Eigen::Isometry3d& t, harvest::pose_t& p) {
-  const Eigen::Quaterniond q(t.linear());
-  for (int i = 0; i < 3; ++i) p.position[i] = t.translation()[i];
-  p.orientation[0] = q.w();
-  p.orientation[1] = q.x();
-  p.orientation[2] = q.y();
-  p.orientation[3] = q.z();
 }
 
 }  // namespace
@@ -584,8 +576,8 @@ void RobotLinkNode::publish_state(const Eigen::VectorXd& cmd, Micros sampled) {
     if (d.heartbeat_lost) flags |= kFlagHeartbeatLost;
     if (d.pdo_lost) flags |= kFlagPdoLost;
   }
-  to_pose(kinematics::tool_pose(config_.model, q_), s.tool_pose);
-  to_pose(kinematics::camera_pose(config_.model, q_), s.camera_pose);
+  s.tool_pose = geometry::to_pose(kinematics::tool_pose(config_.model, q_));
+  s.camera_pose = geometry::to_pose(kinematics::camera_pose(config_.model, q_));
   const kinematics::Twist v = kinematics::tool_jacobian(config_.model, q_) * qd_;
   for (int i = 0; i < 3; ++i) {
     s.tool_twist.linear[i] = v[i];

@@ -18,6 +18,7 @@
 
 #include "can/memory_bus.hpp"
 #include "canopen/protocol.hpp"
+#include "geometry/pose_msg.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
@@ -737,12 +738,7 @@ harvest::robot_command_t pose_goal_command(const Eigen::Isometry3d& goal, int64_
   cmd.type = harvest::robot_command_t::TYPE_POSE_GOAL;
   cmd.validity_us = 200'000;
   cmd.goal_id = goal_id;
-  const Eigen::Quaterniond q(goal.linear());
-  for (int i = 0; i < 3; ++i) cmd.pose_goal.position[i] = goal.translation()[i];
-  cmd.pose_goal.orientation[0] = q.w();
-  cmd.pose_goal.orientation[1] = q.x();
-  cmd.pose_goal.orientation[2] = q.y();
-  cmd.pose_goal.orientation[3] = q.z();
+  cmd.pose_goal = geometry::to_pose(goal);
   return cmd;
 }
 
