@@ -93,6 +93,20 @@ std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const 
   return out;
 }
 
+std::optional<RayCrossing> cross_rays(const Eigen::Vector3d& o1, const Eigen::Vector3d& d1, const Eigen::Vector3d& o2,
+                                      const Eigen::Vector3d& d2) {
+  // Minimise |o1 + s d1 - o2 - t d2| over s, t (unit directions).
+  const double b = d1.dot(d2);
+  const double den = 1.0 - b * b;
+  if (den < 1e-9) return std::nullopt;
+  const Eigen::Vector3d w = o1 - o2;
+  const double d = d1.dot(w), e = d2.dot(w);
+  const double s = (b * e - d) / den, t = (e - b * d) / den;
+  if (s <= 0.0 || t <= 0.0) return std::nullopt;
+  const Eigen::Vector3d p1 = o1 + s * d1, p2 = o2 + t * d2;
+  return RayCrossing{0.5 * (p1 + p2), (p1 - p2).norm(), std::acos(std::clamp(b, -1.0, 1.0))};
+}
+
 double distance_to_polyline(const std::vector<Eigen::Vector2d>& polyline, const Eigen::Vector2d& pixel) {
   if (polyline.empty()) return std::numeric_limits<double>::infinity();
   double best = (polyline.front() - pixel).norm();

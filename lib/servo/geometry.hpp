@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <vector>
 
 #include "geometry/pose_msg.hpp"
@@ -49,6 +50,17 @@ bool project_point(const CameraIntrinsics& cam, const Eigen::Vector3d& p_camera,
 // field of view are left out; empty if nothing of it is in view.
 std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const Eigen::Isometry3d& camera,
                                              const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+// Where two rays o + s d (unit d, s > 0) come closest: the midpoint of the
+// two closest points, their distance (`gap`) and the angle between the rays.
+// nullopt for (nearly) parallel rays or a closest point behind an origin.
+struct RayCrossing {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double gap = 0.0;    // [m]
+  double angle = 0.0;  // [rad]
+};
+std::optional<RayCrossing> cross_rays(const Eigen::Vector3d& o1, const Eigen::Vector3d& d1, const Eigen::Vector3d& o2,
+                                      const Eigen::Vector3d& d2);
+
 // Distance [px] from a pixel to a polyline (infinity if it is empty).
 double distance_to_polyline(const std::vector<Eigen::Vector2d>& polyline, const Eigen::Vector2d& pixel);
 

@@ -310,9 +310,22 @@ bool HarvestMachine::goal_stalled(rt::Micros now) {
 void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out) {
   switch (state_) {
     case State::kOrient:
-      // Aiming happens at home, so the arm is still clear of the canopy: the
-      // fruit is out of its reach in that direction; others may not be.
-      fail_fruit(fruit_outcome_t::UNREACHABLE, "the arm could not turn to it (" + why + ")", false, now, out);
+      // Aiming happens at home or at a viewpoint outside the canopy, so the
+      // arm is still clear of it: the fruit is out of its reach from there;
+      // others may not be.
+      if (!current_->from_viewpoint && aim_from_viewpoint(current_->estimate)) {
+        note_ = "fruit " + std::to_string(current_->id) + ": the arm could not turn to it (" + why +
+                "), aiming from a viewpoint";
+        current_->from_viewpoint = true;
+        start_goal(cfg_.home_pose, State::kReturn, now,
+                   out);  // back to home first: the viewpoint is reached from there
+        break;
+      }
+      fail_fruit(fruit_outcome_t::UNREACHABLE,
+                 (current_->from_viewpoint ? "the arm could not reach a viewpoint of it ("
+                                           : "the arm could not turn to it (") +
+                     why + ")",
+                 false, now, out);
       break;
     case State::kBackoff:
       // Backing off for a second IR attempt is blocked (a joint limit next to
@@ -373,18 +386,21 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
       ++aborted_;
       break;
   }
-  // A fruit is given up for good once picked, unreachable, or out of attempts.
-  if (outcome == fruit_outcome_t::PICKED || outcome == fruit_outcome_t::UNREACHABLE ||
-      attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
+  // A picked fruit has left the tree, and with it its fixed-camera target:
+  // an id still seen afterwards is a fruit still there (the camera-in-hand
+  // followed a neighbour to the grasp, or the tracker passed the id on), so
+  // it may be tried again. Any other fruit is given up for good once
+  // unreachable or out of attempts.
+  if (outcome == fruit_outcome_t::PICKED) {
+    attempts_.erase(fruit_id);
+  } else if (outcome == fruit_outcome_t::UNREACHABLE || attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
     finished_.insert(fruit_id);
     const Eigen::Vector3d at = current_ && current_->id == fruit_id ? current_->selected_from : target;
     finished_at_[fruit_id] = at;
     const bool ours = current_ && current_->id == fruit_id;
     if (ours && current_->sight) finished_sight_[fruit_id] = current_->sight->direction;
-    if (outcome != fruit_outcome_t::PICKED) {
-      given_up_.push_back(at);
-      if (ours && current_->sight) given_up_sights_.push_back(current_->sight->direction);
-    }
+    given_up_.push_back(at);
+    if (ours && current_->sight) given_up_sights_.push_back(current_->sight->direction);
   }
   note_ = "fruit " + std::to_string(fruit_id) + " " + outcome_name(outcome) + (detail.empty() ? "" : ": " + detail);
   out.status_changed = true;
@@ -572,10 +588,40 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   hand_target_px_.reset();
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
-  // Point the gripper axis at the fruit without moving the tool point (eq. 6-19..6-22).
+  orient(now, out);
+}
+
+void HarvestMachine::orient(rt::Micros now, MachineOutput& out) {
+  const Eigen::Vector3d axis = tool().linear().col(2);
+  const Eigen::Vector3d to = (current_->estimate - tool().translation()).normalized();
+  if (std::acos(std::clamp(axis.dot(to), -1.0, 1.0)) > cfg_.max_aim_angle) current_->from_viewpoint = true;
+  const auto view = current_->from_viewpoint ? aim_from_viewpoint(current_->estimate) : std::nullopt;
+  if (!view) current_->from_viewpoint = false;
+  start_goal(view ? *view : aim_in_place(current_->estimate), State::kOrient, now, out);
+}
+
+Eigen::Isometry3d HarvestMachine::aim_in_place(const Eigen::Vector3d& target) const {
   Eigen::Isometry3d goal = tool();
-  goal.linear() = aim_rotation(tool(), current_->estimate);
-  start_goal(goal, State::kOrient, now, out);
+  goal.linear() = aim_rotation(tool(), target);
+  return goal;
+}
+
+std::optional<Eigen::Isometry3d> HarvestMachine::aim_from_viewpoint(const Eigen::Vector3d& target) const {
+  // Seen from the side, along the home axis turned a little toward it, so
+  // the arm's posture stays near the home one and the approach still comes
+  // from outside the canopy.
+  if (cfg_.view_angle <= 0.0) return std::nullopt;
+  const Eigen::Vector3d axis = cfg_.home_pose.linear().col(2);
+  const Eigen::Vector3d to = (target - cfg_.home_pose.translation()).normalized();
+  const Eigen::Vector3d normal = axis.cross(to);
+  if (normal.norm() < 1e-6) return std::nullopt;  // straight ahead: nothing to gain
+  const double turn = std::min(cfg_.view_angle, std::acos(std::clamp(axis.dot(to), -1.0, 1.0)));
+  const Eigen::Vector3d view_axis = Eigen::AngleAxisd(turn, normal.normalized()) * axis;
+  Eigen::Isometry3d from = cfg_.home_pose;
+  from.translation() = target - cfg_.view_distance * view_axis;
+  if (!cfg_.workspace.contains(from.translation())) return std::nullopt;
+  from.linear() = aim_rotation(from, target);
+  return from;
 }
 
 void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
@@ -659,12 +705,13 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
   // A fruit cut by the image border, or filling most of the image (near,
   // under IR guidance), has no apparent size to take a depth from: the
   // estimate stays the last one that had (eq. 6-15).
-  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_) return out;
+  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_ || pixel_triangulated_) return out;
   constexpr double kSamePixel = 0.5;  // [px] the reconstructor copies the detection's centroid
   for (const auto& t : msg.targets) {
     if ((Eigen::Vector2d(t.u_px, t.v_px) - Eigen::Vector2d(pixel_->u, pixel_->v)).norm() > kSamePixel) continue;
     current_->estimate = vec(t.position_base);
     current_->depth_doubtful = false;
+    current_->triangulated = false;
     break;
   }
   return out;
@@ -691,15 +738,18 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
     predicted = *hand_target_px_;
   } else {
     have_point = project_point(cfg_.hand_camera, camera().inverse() * current_->estimate, predicted);
-    if (doubtful) {
+    if (current_->sight) {
       const SightLine& l = *current_->sight;
       sight_px = project_segment(cfg_.hand_camera, camera(), l.at(l.near), l.at(l.far));
     }
     if (sight_px.empty() && !have_point) return out;
   }
-  // Gate on the distance to the line (or point); among detections on the
-  // line, a hundredth of the distance to the aim point decides.
-  constexpr double kTieWeight = 0.01;
+  // Gate on the distance to the image of the fixed camera's line of sight
+  // (or to the point); among detections near the line, the distance to the
+  // predicted point decides too: a little for a doubtful depth, more for a
+  // plausible one. A neighbour nearer the point but off the line is another
+  // fruit at another depth.
+  const double kTieWeight = doubtful ? 0.01 : 0.25;
   double best = std::numeric_limits<double>::infinity();
   const fruit_t* match = nullptr;
   for (const auto& f : msg.fruits) {
@@ -720,8 +770,29 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
     const auto& b = match->bbox_px;
     pixel_whole_ = b[0] >= kBorder && b[1] >= kBorder && b[0] + b[2] <= msg.image_width - kBorder &&
                    b[1] + b[3] <= msg.image_height - kBorder && match->diameter_px <= kMostOfImage * msg.image_height;
+    pixel_triangulated_ = false;
+    if (pixel_whole_)
+      if (const auto p = triangulate(*pixel_)) {
+        current_->estimate = *p;
+        current_->depth_doubtful = false;
+        current_->triangulated = true;
+        pixel_triangulated_ = true;
+      }
   }
   return out;
+}
+
+std::optional<Eigen::Vector3d> HarvestMachine::triangulate(const PixelMeasurement& pixel) const {
+  if (cfg_.triangulation_gap <= 0.0 || !current_ || !current_->sight || !robot_) return std::nullopt;
+  // The newest camera pose: within one image period of the image's, and the
+  // arm moves mostly along this very ray while approaching.
+  const Eigen::Vector2d xy = undistort_pixel(cfg_.hand_camera, pixel.u, pixel.v);
+  const Eigen::Isometry3d cam = camera();
+  const Eigen::Vector3d ray = cam.rotation() * Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  const SightLine& l = *current_->sight;
+  const auto c = cross_rays(cam.translation(), ray, l.origin, l.direction);
+  if (!c || c->gap > cfg_.triangulation_gap || c->angle < cfg_.min_triangulation_angle) return std::nullopt;
+  return c->point;
 }
 
 MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micros now) {
@@ -1013,7 +1084,11 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
           start_goal(cfg_.home_pose, State::kReturn, now, out);
           break;
         case State::kReturn:
-          enter(State::kSelect, now, out);
+          if (current_) {
+            orient(now, out);  // back from a blocked turn: aim again, from the viewpoint
+          } else {
+            enter(State::kSelect, now, out);
+          }
           break;
         default:
           note_ = "at home";
@@ -1054,7 +1129,8 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         ir_folded_ = false;
         ir_last_near_.reset();
         ir_start_ = t.translation();
-        note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm";
+        note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
+                (current_->triangulated ? " (triangulated)" : " (depth from size)");
         enter(State::kIrApproach, now, out);
         // fall through to the first IR-guided command below
       } else {
@@ -1074,10 +1150,12 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       const Eigen::Isometry3d t = tool();
       const double ahead = (current_->estimate - t.translation()).dot(t.rotation().col(2));
       // The IR sees the first thing on its axis: a leaf in front of the fruit
-      // reads like the fruit. A reading at the grasp range while the estimate
-      // puts the fruit much farther is that leaf; the approach goes on past it.
-      const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && !current_->depth_doubtful &&
-                        ahead > cfg_.ir_vision_agreement;
+      // reads like the fruit. A reading at the grasp range while the
+      // triangulated estimate puts the fruit much farther is that leaf; the
+      // approach goes on past it. A depth from the apparent size can be
+      // decimetres off, so it never overrules the IR.
+      const bool leaf =
+          at_grasp_range && cfg_.ir_vision_agreement > 0 && current_->triangulated && ahead > cfg_.ir_vision_agreement;
       if (leaf) {  // the leaf, not the fruit
         ir_folded_ = false;
         ir_last_near_.reset();

@@ -112,6 +112,8 @@ class HarvestMachine {
     // near one): aimed at its line of sight instead, until the camera-in-hand
     // measures it.
     bool depth_doubtful = false;
+    bool from_viewpoint = false;  // ORIENT goes to the viewpoint (the turn at home is too wide or was blocked)
+    bool triangulated = false;    // the estimate is where the two cameras' rays cross (not from a size)
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -143,11 +145,24 @@ class HarvestMachine {
   // The pickable part of the fixed camera's line of sight through `t`;
   // nullopt if the view carries no camera pose or no part is pickable.
   std::optional<SightLine> sight_line(const targets_t& view, const target_t& t) const;
+  // The current fruit where the camera-in-hand's ray through `pixel` crosses
+  // the fixed camera's line of sight; nullopt if they do not cross closely
+  // at a useful angle (another fruit, or a line of sight too poor).
+  std::optional<Eigen::Vector3d> triangulate(const PixelMeasurement& pixel) const;
   // Where to aim, from `from`, at a fruit somewhere on a sight line: the
   // stretch of line the camera-in-hand sees at once, starting at parameter
   // `s_start` (the end nearest the fixed camera's estimate), aimed at its
   // middle direction. Returns a point of the line.
   Eigen::Vector3d sight_aim(const SightLine& line, double s_start, const Eigen::Vector3d& from) const;
+  // The ORIENT goals for a fruit at `target`, from the tool at home: the
+  // gripper axis turned to it in place (eq. 6-19..6-22); or, from a viewpoint
+  // view_distance short of it, the home axis turned view_angle toward it
+  // (nullopt if the viewpoint is off or outside the workspace).
+  Eigen::Isometry3d aim_in_place(const Eigen::Vector3d& target) const;
+  std::optional<Eigen::Isometry3d> aim_from_viewpoint(const Eigen::Vector3d& target) const;
+  // ORIENT: aim at the current fruit from home, or from its viewpoint if it
+  // lies more than max_aim_angle off the home axis.
+  void orient(rt::Micros now, MachineOutput& out);
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
@@ -189,7 +204,8 @@ class HarvestMachine {
   rt::Micros ir_rx_ = 0;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
-  bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
+  bool pixel_whole_ = false;         // ... the whole fruit, inside the image: its size gives a depth
+  bool pixel_triangulated_ = false;  // ... and its ray crossed the fixed camera's: the estimate needs no size
   std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 

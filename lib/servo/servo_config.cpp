@@ -101,6 +101,11 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.max_attempts_per_fruit = n.get("max_attempts_per_fruit", c.max_attempts_per_fruit, {1, 10});
   c.association_gate_px = n.get("association_gate_px", c.association_gate_px, pos);
   c.min_ahead_of_home = n.get("min_ahead_of_home", c.min_ahead_of_home, {-10.0, 10.0});
+  c.max_aim_angle = n.get("max_aim_angle", c.max_aim_angle, {0.0, 1.6});
+  c.view_angle = n.get("view_angle", c.view_angle, {0.0, 1.5});
+  c.view_distance = n.get("view_distance", c.view_distance, {0.1, 1.5});
+  c.triangulation_gap = n.get("triangulation_gap", c.triangulation_gap, {0.0, 0.5});
+  c.min_triangulation_angle = n.get("min_triangulation_angle", c.min_triangulation_angle, {0.01, 1.5});
   c.same_fruit_distance = n.get("same_fruit_distance", c.same_fruit_distance, nonneg);
   c.same_sight_angle = n.get("same_sight_angle", c.same_sight_angle, {0.0, 0.5});
   c.reused_id_distance = n.get("reused_id_distance", c.reused_id_distance, nonneg);

@@ -71,9 +71,10 @@ struct ServoConfig {
   double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
   double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
   double ir_overshoot = 0.05;          // [m] ... or past the estimated fruit centre by this much
-  double ir_vision_agreement =
-      0.0;              // [m] > 0: an IR grasp reading counts only with the fruit centre no farther ahead (0: off)
-  int ir_attempts = 2;  // IR approaches per fruit (thesis: retry once)
+  // [m] > 0: an IR grasp reading counts only with the triangulated fruit
+  // centre no farther ahead (a leaf in front of it); 0: off
+  double ir_vision_agreement = 0.07;
+  int ir_attempts = 2;                // IR approaches per fruit (thesis: retry once)
   double orient_tolerance = 0.02;     // [rad] orientation reached
   double position_tolerance = 0.005;  // [m] pose goal reached
   double retreat_distance = 0.15;     // [m] pull back along the tool axis after a failure
@@ -83,9 +84,23 @@ struct ServoConfig {
   int max_attempts_per_fruit = 1;     // a failed fruit is retried at most this many times in total
   double association_gate_px = 80.0;  // hand detection must lie this close to the predicted pixel
   double min_ahead_of_home = 0.05;    // [m] a target must lie this far ahead of the tool at home, along its axis
-  double same_fruit_distance = 0.05;  // [m] a fixed-camera target this close to a given-up one is that fruit
-  double same_sight_angle = 0.02;     // [rad] ... or, with a doubtful depth, its line of sight this close to one
-  double reused_id_distance = 0.15;   // [m] a finished id seen this far from where it finished is another fruit
+  // A fruit more than max_aim_angle off the gripper axis at home, or one the
+  // arm cannot turn to there, is aimed at from a viewpoint view_distance
+  // short of it, the home axis turned view_angle toward it: the arm has no
+  // joint solution for a wide turn at home.
+  double max_aim_angle = 1.15;  // [rad]
+  double view_angle = 0.5;      // [rad] 0: always aim from home (the thesis)
+  double view_distance = 0.5;   // [m]
+  // The camera-in-hand's ray through the fruit crossed with the fixed
+  // camera's gives its position without the apparent size, which a leaf
+  // cutting the fruit falsifies. Used when the rays pass within
+  // triangulation_gap and cross at min_triangulation_angle or more;
+  // triangulation_gap 0: the size alone (the thesis's eq. 6-15).
+  double triangulation_gap = 0.06;       // [m]
+  double min_triangulation_angle = 0.2;  // [rad]
+  double same_fruit_distance = 0.05;     // [m] a fixed-camera target this close to a given-up one is that fruit
+  double same_sight_angle = 0.02;        // [rad] ... or, with a doubtful depth, its line of sight this close to one
+  double reused_id_distance = 0.15;      // [m] a finished id seen this far from where it finished is another fruit
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();

@@ -330,10 +330,10 @@ TEST(ClosedLoop, IrGuidedApproachSlowsDownNearTheFruit) {
 // the leaf and closes on the fruit.
 TEST(ClosedLoop, LeafInFrontOfTheFruitIsPassedNotGraspedAt) {
   WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();  // the cameras' rays cross: a triangulated estimate
   spec.leaf_before_fruit_m = 0.15;
   ServoConfig cfg = test_config();
-  ASSERT_EQ(cfg.ir_vision_agreement, 0.0);  // off by default (docs/servo-controller.md)
-  cfg.ir_vision_agreement = 0.07;
+  ASSERT_GT(cfg.ir_vision_agreement, 0.0);
   Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
@@ -345,6 +345,21 @@ TEST(ClosedLoop, LeafInFrontOfTheFruitIsPassedNotGraspedAt) {
     noted = noted || st.summary.find("past a leaf") != std::string::npos;
   EXPECT_TRUE(noted);
   expect_within_limits(loop);
+}
+
+// ... but not with a depth from the apparent size alone (here the rays do
+// not cross: the fixed camera's estimate is 145 mm off across its line of
+// sight): that depth may be decimetres off, and the IR reading is taken.
+TEST(ClosedLoop, LeafRuleNeedsATriangulatedEstimate) {
+  WorldSpec spec = experiment_one();
+  spec.leaf_before_fruit_m = 0.15;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  ASSERT_TRUE(loop.world.close_position().has_value());
+  EXPECT_GT((*loop.world.close_position() - spec.fruits[0].position).norm(), 0.1);  // closed at the leaf
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    EXPECT_EQ(st.summary.find("past a leaf"), std::string::npos);
 }
 
 // An IR sensor that folds back before the grasp range reads a near fruit as
@@ -724,6 +739,49 @@ TEST(ClosedLoop, AFinishedIdWithAJumpingDepthIsNotANewFruit) {
   EXPECT_EQ(loop.ctrl.machine().outcomes().size(), 1u) << loop.ctrl.machine().summary();
 }
 
+// A leaf hides most of the fruit from the camera-in-hand: its apparent size
+// puts it 2.5 times too far, beyond the workspace. Its ray crossed with the
+// fixed camera's gives the position without the size, and it is picked;
+// with the size alone (triangulation off) it is measured out of reach.
+TEST(ClosedLoop, FruitCutByALeafIsPlacedWhereTheTwoCamerasRaysCross) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_depth_scale = 2.5;
+  {
+    Loop loop(spec);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+    // The estimate the grasp was made with: the true centre within a few cm
+    // (the size-based one is a metre off).
+    const auto& o = *loop.outcome(1);
+    EXPECT_LT((Eigen::Vector3d(o.target_base[0], o.target_base[1], o.target_base[2]) - spec.fruits[0].position).norm(),
+              0.03);
+    expect_within_limits(loop);
+  }
+  ServoConfig size_only = test_config();
+  size_only.triangulation_gap = 0.0;
+  Loop loop(spec, size_only);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace");
+}
+
+// Another fruit's ray does not cross the fixed camera's line of sight: a
+// hand detection whose ray passes more than triangulation_gap from it keeps
+// its size-based depth (here exact), whatever the crossing says.
+TEST(ClosedLoop, RaysThatDoNotMeetGiveNoPosition) {
+  WorldSpec spec = experiment_one();  // the fixed camera's estimate is 145 mm off, across its line of sight
+  spec.hand_depth_scale = 1.0;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  const auto& o = *loop.outcome(1);
+  EXPECT_LT((Eigen::Vector3d(o.target_base[0], o.target_base[1], o.target_base[2]) - spec.fruits[0].position).norm(),
+            0.01);
+}
+
 TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachable) {
   // Beyond the box and the reach shell, but seen nearer by the fixed camera:
   // tried along its line of sight, measured by the camera-in-hand, given up
@@ -892,6 +950,25 @@ TEST(ClosedLoop, AnIdPassedOnToAnotherFruitAfterAPickIsANewFruit) {
   expect_motion_stopped(loop);
 }
 
+// ... also to a neighbour nearer than reused_id_distance: a picked fruit's
+// id still seen afterwards is a fruit still on the tree (the same holds when
+// the camera-in-hand followed the neighbour to the grasp instead).
+TEST(ClosedLoop, AnIdPassedOnToANeighbourAfterAPickIsTriedToo) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.01, -0.02, 0.03);
+  spec.fruits = {{1, {-0.2667, 1.0160, -0.5402}, 0.075}, {2, {-0.1667, 1.0260, -0.5202}, 0.075}};
+  spec.fixed_ids_follow_order = true;
+  const ServoConfig cfg = test_config();
+  ASSERT_LT((spec.fruits[1].position - spec.fruits[0].position).norm(), cfg.reused_id_distance);
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  EXPECT_EQ(published_outcomes(loop, 1).size(), 2u);  // both picked under id 1
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, GripperThatNeverReportsIsAFaultAndStops) {
   WorldSpec spec = experiment_one();
   spec.gripper_stuck = true;
@@ -900,9 +977,10 @@ TEST(ClosedLoop, GripperThatNeverReportsIsAFaultAndStops) {
   expect_fault_stops(loop, "gripper did not report holding or closed in time");
 }
 
-// The arm cannot turn to the fruit (blocked at its joint limits): the fruit
-// is given up as unreachable without waiting for the motion timeout, the arm
-// returns home and the harvest goes on (here: nothing left, DONE).
+// The arm cannot turn to the fruit (blocked at its joint limits), nor reach
+// the viewpoint: the fruit is given up as unreachable without waiting for
+// the motion timeout, the arm returns home and the harvest goes on (here:
+// nothing left, DONE).
 TEST(ClosedLoop, OrientThatStallsMakesTheFruitUnreachable) {
   WorldSpec spec = experiment_one();
   spec.arm_ignores_goals_after_s = 0.0;
@@ -913,9 +991,64 @@ TEST(ClosedLoop, OrientThatStallsMakesTheFruitUnreachable) {
   ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0)) << loop.ctrl.machine().summary();
   ASSERT_TRUE(loop.outcome(1));
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::UNREACHABLE);
-  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not turn to it (stalled)");
-  EXPECT_LT(loop.outcome(1)->cycle_time_s, 2.0);  // the stall, not the 20 s motion timeout
+  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not reach a viewpoint of it (stalled)");
+  EXPECT_LT(loop.outcome(1)->cycle_time_s, 2.5);  // two stalls, not the 20 s motion timeouts
+  const std::vector<std::string> expected{"SELECT", "ORIENT", "RETURN", "ORIENT", "RETURN"};
+  const auto states = published_states(loop);
+  const auto select = std::find(states.begin(), states.end(), "SELECT");
+  ASSERT_GE(states.end() - select, 5);
+  EXPECT_EQ(std::vector<std::string>(select, select + 5), expected);
   expect_motion_stopped(loop);
+}
+
+// The arm cannot make the turn at home (no joint solution): the fruit is
+// aimed at from the viewpoint instead, and picked.
+TEST(ClosedLoop, FruitTheArmCannotTurnToAtHomeIsAimedAtFromAViewpoint) {
+  WorldSpec spec = experiment_one();
+  spec.arm_max_turn_in_place = 0.5;  // the fruit is about 1.0 rad off the axis at home
+  ServoConfig cfg = test_config();
+  cfg.timeouts.stall = 1.0;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  expect_within_limits(loop);
+}
+
+// Too wide a turn for the wrist at home: the fruit is aimed at from a
+// viewpoint view_distance short of it, along the home axis turned
+// view_angle toward it, straight away (no blocked turn first).
+TEST(ClosedLoop, FruitFarOffTheAxisAtHomeIsAimedAtFromAViewpoint) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_depth_scale = 1.0;
+  const Eigen::Vector3d fruit(-0.05, 0.92, -0.30);  // about 1.38 rad off the home axis
+  spec.fruits = {FruitTruth{1, fruit, 0.075}};
+  const ServoConfig cfg = test_config();
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  const Eigen::Vector3d axis = cfg.home_pose.linear().col(2);
+  const Eigen::Vector3d to = (fruit - cfg.home_pose.translation()).normalized();
+  ASSERT_GT(std::acos(axis.dot(to)), cfg.max_aim_angle);
+  const Eigen::Vector3d view_axis = Eigen::AngleAxisd(cfg.view_angle, axis.cross(to).normalized()) * axis;
+  const Eigen::Vector3d viewpoint = fruit - cfg.view_distance * view_axis;
+  // The first pose goal (ORIENT) goes to the viewpoint; the fixed camera's
+  // estimate is exact here, so within a few millimetres of it.
+  std::optional<robot_command_t> first;
+  for (const auto& [t, c] : loop.commands())
+    if (c.type == robot_command_t::TYPE_POSE_GOAL) {
+      first = c;
+      break;
+    }
+  ASSERT_TRUE(first);
+  const Eigen::Isometry3d goal = to_isometry(first->pose_goal);
+  EXPECT_LT((goal.translation() - viewpoint).norm(), 0.02);
+  EXPECT_LT(std::acos(std::clamp(goal.linear().col(2).dot((fruit - goal.translation()).normalized()), -1.0, 1.0)),
+            0.03);
+  expect_within_limits(loop);
 }
 
 TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
@@ -929,7 +1062,7 @@ TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
   Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0)) << loop.ctrl.machine().summary();
-  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not turn to it (did not complete)");
+  EXPECT_EQ(loop.outcome(1)->detail, "the arm could not reach a viewpoint of it (did not complete)");
 }
 
 // A stalled pull goes on to the drop; once the fruit is held, a drop the arm

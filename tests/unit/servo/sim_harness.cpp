@@ -64,6 +64,11 @@ void ArmDouble::on_attach() {
   step();
 }
 
+bool ArmDouble::wide_turn_in_place(const Eigen::Isometry3d& goal) const {
+  return (goal.translation() - tool_.translation()).norm() < 0.01 &&
+         Eigen::AngleAxisd(goal.rotation() * tool_.rotation().transpose()).angle() > *spec_.arm_max_turn_in_place;
+}
+
 void ArmDouble::step() {
   const double dt = 0.01;
   const double t = rt::to_seconds(now() - start_);
@@ -77,7 +82,8 @@ void ArmDouble::step() {
     v = Eigen::Vector3d(cmd_->twist.linear[0], cmd_->twist.linear[1], cmd_->twist.linear[2]);
     w = Eigen::Vector3d(cmd_->twist.angular[0], cmd_->twist.angular[1], cmd_->twist.angular[2]);
   } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL &&
-             !(spec_.arm_ignores_goals_after_s && t >= *spec_.arm_ignores_goals_after_s)) {
+             !(spec_.arm_ignores_goals_after_s && t >= *spec_.arm_ignores_goals_after_s) &&
+             !(spec_.arm_max_turn_in_place && wide_turn_in_place(to_isometry(cmd_->pose_goal)))) {
     const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
     const Eigen::Vector3d dp = goal.translation() - tool_.translation();
     v = clamp_norm(dp / dt, cmd_->max_linear_speed);

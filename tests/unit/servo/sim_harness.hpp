@@ -107,8 +107,11 @@ struct WorldSpec {
   bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
   std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
   std::optional<double> arm_blocked_after_s;        // no command moves the arm any more (it reports MOVING)
-  bool fruit_slips = false;                         // a held fruit falls out of the gripper 0.2 s after the grasp
-  bool fixed_camera_silent = false;                 // no fixed-camera TARGETS at all
+  // A pose goal that keeps the tool where it is and turns it more than this
+  // is acknowledged but never executed (no joint solution for that turn).
+  std::optional<double> arm_max_turn_in_place;
+  bool fruit_slips = false;          // a held fruit falls out of the gripper 0.2 s after the grasp
+  bool fixed_camera_silent = false;  // no fixed-camera TARGETS at all
   bool fixed_ids_follow_order =
       false;  // the k-th fruit still on the tree has the k-th id (a picked fruit's id moves on)
   std::optional<double> fixed_ids_change_after_s;  // the fixed camera's tracker renumbers every fruit (id + 1000)
@@ -133,6 +136,7 @@ class ArmDouble final : public rt::Node {
 
  private:
   void step();
+  bool wide_turn_in_place(const Eigen::Isometry3d& goal) const;
   const WorldSpec& spec_;
   Eigen::Isometry3d tool_;
   std::optional<robot_command_t> cmd_;
