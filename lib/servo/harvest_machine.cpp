@@ -76,6 +76,13 @@ LimitsConfig limits_of(const ServoConfig& c) {
 
 Eigen::Vector3d vec(const double* p) { return {p[0], p[1], p[2]}; }
 
+// A size-based hand estimate agrees with the rays' crossing within this share
+// of the range (at least the floor): the hand depth's own error is about 10 %
+// rms (the tree runs' depth-error table), a leaf-cut fruit's a factor of 1.5
+// or more.
+constexpr double kSizeAgreement = 0.3;
+constexpr double kSizeAgreementFloor = 0.1;  // [m]
+
 }  // namespace
 
 HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
@@ -705,13 +712,24 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
   // A fruit cut by the image border, or filling most of the image (near,
   // under IR guidance), has no apparent size to take a depth from: the
   // estimate stays the last one that had (eq. 6-15).
-  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_ || pixel_triangulated_) return out;
+  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_) return out;
   constexpr double kSamePixel = 0.5;  // [px] the reconstructor copies the detection's centroid
   for (const auto& t : msg.targets) {
     if ((Eigen::Vector2d(t.u_px, t.v_px) - Eigen::Vector2d(pixel_->u, pixel_->v)).norm() > kSamePixel) continue;
-    current_->estimate = vec(t.position_base);
+    const Eigen::Vector3d sized = vec(t.position_base);
     current_->depth_doubtful = false;
-    current_->triangulated = false;
+    current_->estimate = sized;
+    current_->depth = Fruit::Depth::kSize;
+    if (pixel_crossing_) {
+      // The size is the better depth near the fruit (its error shrinks with
+      // the distance, the crossing's stays that of the fixed calibration);
+      // the crossing catches a size gone grossly wrong: a leaf cutting the
+      // fruit makes it look small and far.
+      const double range = (*pixel_crossing_ - camera().translation()).norm();
+      const bool agrees = (sized - *pixel_crossing_).norm() <= std::max(kSizeAgreementFloor, kSizeAgreement * range);
+      current_->estimate = agrees ? sized : *pixel_crossing_;
+      current_->depth = agrees ? Fruit::Depth::kConfirmed : Fruit::Depth::kCrossing;
+    }
     break;
   }
   return out;
@@ -722,6 +740,16 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
   const bool looking = state_ == State::kAcquire || state_ == State::kApproach || state_ == State::kReacquire ||
                        state_ == State::kIrApproach;
   if (!current_ || !looking || msg.status != fruit_detections_t::STATUS_OK || !robot_) return out;
+  // A fruit filling the image where the gripper axis (the optical axis) meets
+  // it: whatever the IR reads right in front of the gripper is a fruit, not a
+  // leaf (see the leaf rule in IR_APPROACH).
+  constexpr double kFills = 0.8;  // of the image height
+  for (const auto& f : msg.fruits) {
+    const auto& b = f.bbox_px;
+    if (f.diameter_px >= kFills * msg.image_height && b[0] <= cfg_.hand_camera.u0 &&
+        cfg_.hand_camera.u0 <= b[0] + b[2] && b[1] <= cfg_.hand_camera.v0 && cfg_.hand_camera.v0 <= b[1] + b[3])
+      fruit_fills_view_rx_ = now;
+  }
   // Where the current fruit is in this image: near our last centroid while
   // we follow it; else on the image of the fixed camera's line of sight
   // while its depth is doubtful (nearest the aim point among equals); else
@@ -770,14 +798,7 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
     const auto& b = match->bbox_px;
     pixel_whole_ = b[0] >= kBorder && b[1] >= kBorder && b[0] + b[2] <= msg.image_width - kBorder &&
                    b[1] + b[3] <= msg.image_height - kBorder && match->diameter_px <= kMostOfImage * msg.image_height;
-    pixel_triangulated_ = false;
-    if (pixel_whole_)
-      if (const auto p = triangulate(*pixel_)) {
-        current_->estimate = *p;
-        current_->depth_doubtful = false;
-        current_->triangulated = true;
-        pixel_triangulated_ = true;
-      }
+    pixel_crossing_ = pixel_whole_ ? triangulate(*pixel_) : std::nullopt;
   }
   return out;
 }
@@ -1130,7 +1151,9 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         ir_last_near_.reset();
         ir_start_ = t.translation();
         note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
-                (current_->triangulated ? " (triangulated)" : " (depth from size)");
+                (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
+                 : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
+                                                              : " (depth from size)");
         enter(State::kIrApproach, now, out);
         // fall through to the first IR-guided command below
       } else {
@@ -1150,12 +1173,18 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       const Eigen::Isometry3d t = tool();
       const double ahead = (current_->estimate - t.translation()).dot(t.rotation().col(2));
       // The IR sees the first thing on its axis: a leaf in front of the fruit
-      // reads like the fruit. A reading at the grasp range while the
-      // triangulated estimate puts the fruit much farther is that leaf; the
-      // approach goes on past it. A depth from the apparent size can be
-      // decimetres off, so it never overrules the IR.
-      const bool leaf =
-          at_grasp_range && cfg_.ir_vision_agreement > 0 && current_->triangulated && ahead > cfg_.ir_vision_agreement;
+      // reads like the fruit. A reading at the grasp range while an estimate
+      // checked against the rays' crossing puts the fruit much farther is
+      // that leaf; the approach goes on past it. A depth from the apparent
+      // size alone can be decimetres off, so it never overrules the IR.
+      // Not when a fruit fills the hand image on the axis as the reading
+      // comes: then the IR reads a fruit in front of the one aimed at, and
+      // pushing on would knock it off; the gripper closes on that one
+      // instead. (Once past a leaf, the fruit aimed at fills the image.)
+      const bool fruit_in_front = !ir_passing_leaf_ && fruit_fills_view_rx_ != 0 &&
+                                  now - fruit_fills_view_rx_ <= rt::from_seconds(cfg_.timeouts.lost);
+      const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && current_->depth != Fruit::Depth::kSize &&
+                        ahead > cfg_.ir_vision_agreement && !fruit_in_front;
       if (leaf) {  // the leaf, not the fruit
         ir_folded_ = false;
         ir_last_near_.reset();

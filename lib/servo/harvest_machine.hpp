@@ -113,7 +113,10 @@ class HarvestMachine {
     // measures it.
     bool depth_doubtful = false;
     bool from_viewpoint = false;  // ORIENT goes to the viewpoint (the turn at home is too wide or was blocked)
-    bool triangulated = false;    // the estimate is where the two cameras' rays cross (not from a size)
+    // Where the estimate's depth comes from: the apparent size alone, the
+    // size confirmed by where the two cameras' rays cross, or that crossing
+    // (the size disagreed with it: a leaf cutting the fruit).
+    enum class Depth { kSize, kConfirmed, kCrossing } depth = Depth::kSize;
   };
   struct Timed {
     rt::Micros rx = 0;  // receive time on our clock
@@ -204,8 +207,9 @@ class HarvestMachine {
   rt::Micros ir_rx_ = 0;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
-  bool pixel_whole_ = false;         // ... the whole fruit, inside the image: its size gives a depth
-  bool pixel_triangulated_ = false;  // ... and its ray crossed the fixed camera's: the estimate needs no size
+  bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
+  std::optional<Eigen::Vector3d> pixel_crossing_;  // ... where its ray crosses the fixed camera's line of sight
+  rt::Micros fruit_fills_view_rx_ = 0;  // last hand image with a fruit filling it on the gripper axis (0: none)
   std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 

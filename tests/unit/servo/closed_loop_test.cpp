@@ -347,6 +347,30 @@ TEST(ClosedLoop, LeafInFrontOfTheFruitIsPassedNotGraspedAt) {
   expect_within_limits(loop);
 }
 
+// The thing the IR reads at the grasp range, 15 cm before the fruit aimed
+// at, fills the hand image: a fruit in front of it, not a leaf. The gripper
+// closes on that one instead of pushing on and knocking it off; the one
+// aimed at is picked afterwards.
+TEST(ClosedLoop, FruitInFrontOfTheOneAimedAtIsGraspedNotPushedPast) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_reports_filling = true;
+  const Eigen::Vector3d aimed = spec.fruits[0].position;
+  const Eigen::Vector3d in_front = aimed - 0.15 * (aimed - spec.start_tool.translation()).normalized();
+  spec.fruits.push_back({2, in_front, 0.075});
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDetach, 30.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.ctrl.machine().current_fruit(), 1);  // aimed at the far one ...
+  ASSERT_TRUE(loop.world.close_position().has_value());
+  EXPECT_LT((*loop.world.close_position() - in_front).norm(), 0.03);  // ... closed on the near one
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    EXPECT_EQ(st.summary.find("past a leaf"), std::string::npos);
+}
+
 // ... but not with a depth from the apparent size alone (here the rays do
 // not cross: the fixed camera's estimate is 145 mm off across its line of
 // sight): that depth may be decimetres off, and the IR reading is taken.
@@ -765,6 +789,26 @@ TEST(ClosedLoop, FruitCutByALeafIsPlacedWhereTheTwoCamerasRaysCross) {
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
   expect_published(loop, 1, fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace");
+}
+
+// The fixed camera's line of sight is 3 cm off (within the gap): the
+// crossing is centimetres off too, while the size-based depth (exact here)
+// agrees with it. The size is kept: near the fruit it is the better depth.
+TEST(ClosedLoop, ASizeDepthConfirmedByTheCrossingIsKept) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.0, 0.0, 0.03);
+  spec.hand_depth_scale = 1.0;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  const auto& o = *loop.outcome(1);
+  EXPECT_LT((Eigen::Vector3d(o.target_base[0], o.target_base[1], o.target_base[2]) - spec.fruits[0].position).norm(),
+            0.01);
+  bool confirmed = false;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    confirmed = confirmed || st.summary.find("confirmed by the rays' crossing") != std::string::npos;
+  EXPECT_TRUE(confirmed);
 }
 
 // Another fruit's ray does not cross the fixed camera's line of sight: a

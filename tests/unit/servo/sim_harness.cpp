@@ -213,7 +213,9 @@ void WorldDouble::publish_hand() {
     Eigen::Vector2d px;
     if (pc.z() < 0.05 || !project_point(k, pc, px)) continue;
     const double diameter_px = k.fx * f.diameter / pc.z();
-    if (px.x() < 0 || px.y() < 0 || px.x() >= k.width || px.y() >= k.height || diameter_px > 0.9 * k.width) continue;
+    if (px.x() < 0 || px.y() < 0 || px.x() >= k.width || px.y() >= k.height ||
+        (diameter_px > 0.9 * k.width && !spec_.hand_reports_filling))
+      continue;
     px += Eigen::Vector2d(noise(rng_), noise(rng_));
     fruit_t d{};
     d.id = static_cast<int32_t>(100 + i);  // the hand detector's own track id

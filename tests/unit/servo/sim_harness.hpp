@@ -91,7 +91,8 @@ struct WorldSpec {
   // [m] added to the hand depth when the fruit fills most of the image (a
   // depth from size there is meaningless; the controller must not use it)
   std::optional<double> hand_depth_error_when_filling;
-  double pixel_noise = 0.5;  // uniform +- [px]
+  bool hand_reports_filling = false;  // a fruit filling the image is still detected (bbox clipped to the image)
+  double pixel_noise = 0.5;           // uniform +- [px]
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
   std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
