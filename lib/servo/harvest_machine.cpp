@@ -649,8 +649,13 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
     case State::kIrApproach:
       // Same as running out of travel: back off and retry, or give up.
       if (ir_attempt_ < cfg_.ir_attempts) {
+        // Back along the tool axis by the distance come along it: the palm
+        // goes back through the way the gripper came. The straight line back
+        // to the start cuts across it where the centring moved the tool
+        // sideways, through neighbouring fruit.
         Eigen::Isometry3d g = tool();
-        g.translation() = ir_start_;
+        const Eigen::Vector3d axis = g.rotation().col(2);
+        g.translation() -= std::max(0.0, (g.translation() - ir_start_).dot(axis)) * axis;
         start_goal(g, State::kBackoff, now, out);
       } else {
         fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered", true, now, out);

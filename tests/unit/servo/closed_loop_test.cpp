@@ -386,6 +386,25 @@ TEST(ClosedLoop, LeafRuleNeedsATriangulatedEstimate) {
     EXPECT_EQ(st.summary.find("past a leaf"), std::string::npos);
 }
 
+// BACKOFF goes straight back along the tool axis, the way the palm came,
+// not along the line to where the IR phase started: the centring moved the
+// tool sideways on the way in.
+TEST(ClosedLoop, BackOffRetracesTheToolAxis) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kBackoff, 60.0)) << loop.ctrl.machine().summary();
+  const Eigen::Isometry3d tool = loop.arm.tool();
+  const auto goal = to_isometry(loop.commands().back().second.pose_goal);
+  ASSERT_EQ(loop.commands().back().second.type, +robot_command_t::TYPE_POSE_GOAL);
+  const Eigen::Vector3d back = goal.translation() - tool.translation();
+  EXPECT_GT(back.norm(), 0.1);
+  EXPECT_LT(back.cross(tool.rotation().col(2)).norm(), 1e-4);  // no sideways part
+  EXPECT_LT(back.dot(tool.rotation().col(2)), 0.0);            // backwards
+  EXPECT_LT(rotation_distance(goal.rotation(), tool.rotation()), 1e-6);
+}
+
 // An IR sensor that folds back before the grasp range reads a near fruit as
 // far: the camera-in-hand's estimate bounds the range to go, so the arm keeps
 // braking into the fruit instead of speeding up, and backs off past it.
