@@ -557,6 +557,7 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
       continue;
     }
     Fruit f{t.fruit_id, p, now, p, sight_line(view, t), false};
+    if (t.diameter_m > 0) f.diameter = t.diameter_m;
     if (!pickable(p)) {
       // The fixed camera's depth comes from the fruit's apparent size, its
       // direction from the calibration: a piece of a fruit looks small and
@@ -746,13 +747,18 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
                        state_ == State::kIrApproach;
   if (!current_ || !looking || msg.status != fruit_detections_t::STATUS_OK || !robot_) return out;
   // A fruit filling the image where the gripper axis (the optical axis) meets
-  // it: whatever the IR reads right in front of the gripper is a fruit, not a
-  // leaf (see the leaf rule in IR_APPROACH).
-  constexpr double kFills = 0.8;  // of the image height
+  // it, and far larger than the current fruit looks at its estimated depth:
+  // a fruit nearer than it, so what the IR reads right in front of the
+  // gripper is that fruit, not a leaf (see the leaf rule in IR_APPROACH).
+  constexpr double kFills = 0.8;   // of the image height
+  constexpr double kNearer = 1.5;  // times the current fruit's expected image diameter
+  const double depth = (camera().inverse() * current_->estimate).z();
+  const double expected_px = depth > 0.01 ? cfg_.hand_camera.fx * current_->diameter / depth : 0.0;
   for (const auto& f : msg.fruits) {
     const auto& b = f.bbox_px;
-    if (f.diameter_px >= kFills * msg.image_height && b[0] <= cfg_.hand_camera.u0 &&
-        cfg_.hand_camera.u0 <= b[0] + b[2] && b[1] <= cfg_.hand_camera.v0 && cfg_.hand_camera.v0 <= b[1] + b[3])
+    if (f.diameter_px >= kFills * msg.image_height && f.diameter_px > kNearer * expected_px &&
+        b[0] <= cfg_.hand_camera.u0 && cfg_.hand_camera.u0 <= b[0] + b[2] && b[1] <= cfg_.hand_camera.v0 &&
+        cfg_.hand_camera.v0 <= b[1] + b[3])
       fruit_fills_view_rx_ = now;
   }
   // Where the current fruit is in this image: near our last centroid while
@@ -1182,10 +1188,9 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       // checked against the rays' crossing puts the fruit much farther is
       // that leaf; the approach goes on past it. A depth from the apparent
       // size alone can be decimetres off, so it never overrules the IR.
-      // Not when a fruit fills the hand image on the axis as the reading
-      // comes: then the IR reads a fruit in front of the one aimed at, and
-      // pushing on would knock it off; the gripper closes on that one
-      // instead. (Once past a leaf, the fruit aimed at fills the image.)
+      // Not when a fruit nearer than the one aimed at fills the hand image on
+      // the axis as the reading comes: then the IR reads that fruit, and
+      // pushing on would knock it off; the gripper closes on it instead.
       const bool fruit_in_front = !ir_passing_leaf_ && fruit_fills_view_rx_ != 0 &&
                                   now - fruit_fills_view_rx_ <= rt::from_seconds(cfg_.timeouts.lost);
       const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && current_->depth != Fruit::Depth::kSize &&

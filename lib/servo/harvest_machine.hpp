@@ -113,6 +113,7 @@ class HarvestMachine {
     // measures it.
     bool depth_doubtful = false;
     bool from_viewpoint = false;  // ORIENT goes to the viewpoint (the turn at home is too wide or was blocked)
+    double diameter = 0.07;       // [m] the diameter the fixed camera assumed (the statistical size)
     // Where the estimate's depth comes from: the apparent size alone, the
     // size confirmed by where the two cameras' rays cross, or that crossing
     // (the size disagreed with it: a leaf cutting the fruit).

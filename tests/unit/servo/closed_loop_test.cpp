@@ -386,6 +386,24 @@ TEST(ClosedLoop, LeafRuleNeedsATriangulatedEstimate) {
     EXPECT_EQ(st.summary.find("past a leaf"), std::string::npos);
 }
 
+// A leaf 12 cm before the fruit: at the leaf's reading the fruit aimed at
+// already fills the hand image, at the size its estimate says. That is the
+// fruit aimed at, not one in front of it: the leaf is still passed.
+TEST(ClosedLoop, LeafIsPassedWhileTheFruitAimedAtFillsTheImage) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_reports_filling = true;
+  spec.leaf_before_fruit_m = 0.12;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+  bool noted = false;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    noted = noted || st.summary.find("past a leaf") != std::string::npos;
+  EXPECT_TRUE(noted);
+}
+
 // BACKOFF goes straight back along the tool axis, the way the palm came,
 // not along the line to where the IR phase started: the centring moved the
 // tool sideways on the way in.
