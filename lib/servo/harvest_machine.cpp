@@ -420,12 +420,20 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
   pixel_.reset();
   hand_target_px_.reset();
   if (retreat) {
-    Eigen::Isometry3d g = tool();
-    g.translation() -= cfg_.retreat_distance * g.rotation().col(2);
-    start_goal(g, State::kRetreat, now, out);
+    start_goal(retreat_goal(), State::kRetreat, now, out);
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
+  approach_from_.reset();
+}
+
+Eigen::Isometry3d HarvestMachine::retreat_goal() const {
+  Eigen::Isometry3d g = tool();
+  const Eigen::Vector3d axis = g.rotation().col(2);
+  double back = cfg_.retreat_distance;
+  if (approach_from_) back = std::max(back, (g.translation() - *approach_from_).dot(axis));
+  g.translation() -= back * axis;
+  return g;
 }
 
 void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOutput& out) {
@@ -897,7 +905,14 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
       if (msg.state == gripper_state_t::STATE_OPEN && current_) {
         record(fruit_outcome_t::PICKED, current_->id, current_->estimate, "", current_->selected_at, now, out);
         current_.reset();
-        start_goal(cfg_.home_pose, State::kReturn, now, out);
+        // Out of the canopy the way the gripper came in, then home (with the
+        // release at the drop pose, the arm is out of it already).
+        if (approach_from_ && cfg_.release_at_detach) {
+          start_goal(retreat_goal(), State::kRetreat, now, out);
+        } else {
+          start_goal(cfg_.home_pose, State::kReturn, now, out);
+        }
+        approach_from_.reset();
       }
       break;
     default:
@@ -1086,6 +1101,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       }
       switch (state_) {
         case State::kOrient:
+          approach_from_ = tool().translation();
           enter(State::kAcquire, now, out);
           break;
         case State::kBackoff:

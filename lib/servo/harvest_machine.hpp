@@ -167,6 +167,11 @@ class HarvestMachine {
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis.
   void orient(rt::Micros now, MachineOutput& out);
+  // RETREAT goal: back along the tool axis by retreat_distance, or out of
+  // the canopy by the way the gripper came in (to abreast of where the
+  // approach began), whichever is farther. A straight line home from inside
+  // the canopy cuts sideways through neighbouring fruit.
+  Eigen::Isometry3d retreat_goal() const;
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
@@ -245,6 +250,9 @@ class HarvestMachine {
   rt::Micros ir_progress_at_ = 0;       // when the tool last moved 5 mm under IR guidance ...
   Eigen::Vector3d ir_progress_from_ = Eigen::Vector3d::Zero();  // ... from here
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
+  // Where the approach into the canopy began (the tool at the end of ORIENT):
+  // a retreat goes back along the tool axis at least that far.
+  std::optional<Eigen::Vector3d> approach_from_;
 };
 
 }  // namespace harvest::servo

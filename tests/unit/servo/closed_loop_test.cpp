@@ -423,6 +423,27 @@ TEST(ClosedLoop, BackOffRetracesTheToolAxis) {
   EXPECT_LT(rotation_distance(goal.rotation(), tool.rotation()), 1e-6);
 }
 
+// After giving a fruit up deep in the canopy, RETREAT goes back along the
+// tool axis out to abreast of where the approach began (farther than
+// retreat_distance), so the way home does not cut through the canopy.
+TEST(ClosedLoop, RetreatLeavesTheCanopyTheWayTheGripperCameIn) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kAcquire, 30.0)) << loop.ctrl.machine().summary();
+  const Eigen::Vector3d approach_from = loop.arm.tool().translation();
+  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 90.0)) << loop.ctrl.machine().summary();
+  const Eigen::Isometry3d tool = loop.arm.tool();
+  const Eigen::Vector3d axis = tool.rotation().col(2);
+  ASSERT_GT((tool.translation() - approach_from).dot(axis), loop.cfg.retreat_distance + 0.1);  // deep in
+  const auto& c = loop.commands().back().second;
+  ASSERT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
+  const Eigen::Vector3d goal = to_isometry(c.pose_goal).translation();
+  EXPECT_LT((goal - tool.translation()).cross(axis).norm(), 1e-4);  // straight back
+  EXPECT_NEAR((goal - approach_from).dot(axis), 0.0, 1e-3);         // abreast of the start
+}
+
 // An IR sensor that folds back before the grasp range reads a near fruit as
 // far: the camera-in-hand's estimate bounds the range to go, so the arm keeps
 // braking into the fruit instead of speeding up, and backs off past it.
