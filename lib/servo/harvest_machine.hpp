@@ -3,7 +3,7 @@
 // no logging: ServoControllerNode wires it to the bus.
 //
 //   IDLE -START-> ([RETREAT ->] RETURN, if not at home) -> SELECT -> ORIENT -> ACQUIRE -> APPROACH
-//     -> IR_APPROACH -> GRASP -> DETACH -> DROP -> RELEASE -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
+//     -> IR_APPROACH -> GRASP -> DETACH [-> DROP] -> RELEASE [-> RETREAT] -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
 //   failures: APPROACH <-> REACQUIRE -> LOST; IR_APPROACH -> BACKOFF -> IR_APPROACH
 //     -> FAILED_GRASP; each then RETREAT -> RETURN -> SELECT. Faults -> FAULT
 //     (until RESET_FAULT), emergency stop -> ESTOP (latched until cleared).

@@ -311,7 +311,7 @@ TEST(ClosedLoop, IrGuidedApproachSlowsDownNearTheFruit) {
   const double t0 = loop.t();
   double last = 0.0;
   while (loop.ctrl.machine().state() == State::kIrApproach && loop.t() < 60.0) {
-    const auto& c = loop.commands().back().second;
+    const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
     if (c.type == robot_command_t::TYPE_TWIST)
       last = Eigen::Vector3d(c.twist.linear[0], c.twist.linear[1], c.twist.linear[2])
                  .dot(loop.arm.tool().rotation().col(2));
@@ -437,7 +437,7 @@ TEST(ClosedLoop, RetreatLeavesTheCanopyTheWayTheGripperCameIn) {
   const Eigen::Isometry3d tool = loop.arm.tool();
   const Eigen::Vector3d axis = tool.rotation().col(2);
   ASSERT_GT((tool.translation() - approach_from).dot(axis), loop.cfg.retreat_distance + 0.1);  // deep in
-  const auto& c = loop.commands().back().second;
+  const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
   ASSERT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
   const Eigen::Vector3d goal = to_isometry(c.pose_goal).translation();
   EXPECT_LT((goal - tool.translation()).cross(axis).norm(), 1e-4);  // straight back
@@ -458,7 +458,7 @@ TEST(ClosedLoop, IrFoldBackDoesNotSpeedTheArmIntoTheFruit) {
   ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 30.0)) << loop.ctrl.machine().summary();
   double fastest_near = 0.0;  // forward speed commanded with the fruit centre < 3 cm ahead
   while (loop.ctrl.machine().state() == State::kIrApproach && loop.t() < 60.0) {
-    const auto& c = loop.commands().back().second;
+    const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
     const Eigen::Isometry3d tool = loop.arm.tool();
     const double ahead = (spec.fruits[0].position - tool.translation()).dot(tool.rotation().col(2));
     if (c.type == robot_command_t::TYPE_TWIST && ahead < 0.03)
