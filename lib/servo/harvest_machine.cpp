@@ -796,14 +796,14 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
   // predicted point decides too: a little for a doubtful depth, more for a
   // plausible one. A neighbour nearer the point but off the line is another
   // fruit at another depth.
-  const double kTieWeight = doubtful ? 0.01 : 0.25;
+  const double tie_weight = doubtful ? 0.01 : 0.25;
   double best = std::numeric_limits<double>::infinity();
   const fruit_t* match = nullptr;
   for (const auto& f : msg.fruits) {
     const Eigen::Vector2d px(f.u_px, f.v_px);
     const double to_point = have_point ? (px - predicted).norm() : 0.0;
     const double d = sight_px.empty() ? to_point : distance_to_polyline(sight_px, px);
-    const double score = sight_px.empty() ? d : d + kTieWeight * to_point;
+    const double score = sight_px.empty() ? d : d + tie_weight * to_point;
     if (d <= cfg_.association_gate_px && score < best) {
       best = score;
       match = &f;
