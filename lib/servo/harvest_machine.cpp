@@ -427,11 +427,12 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
   approach_from_.reset();
 }
 
-Eigen::Isometry3d HarvestMachine::retreat_goal() const {
+Eigen::Isometry3d HarvestMachine::back_along_axis(const std::optional<Eigen::Vector3d>& abreast_of,
+                                                  double at_least) const {
   Eigen::Isometry3d g = tool();
   const Eigen::Vector3d axis = g.rotation().col(2);
-  double back = cfg_.retreat_distance;
-  if (approach_from_) back = std::max(back, (g.translation() - *approach_from_).dot(axis));
+  double back = at_least;
+  if (abreast_of) back = std::max(back, (g.translation() - *abreast_of).dot(axis));
   g.translation() -= back * axis;
   return g;
 }
@@ -658,14 +659,10 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
     case State::kIrApproach:
       // Same as running out of travel: back off and retry, or give up.
       if (ir_attempt_ < cfg_.ir_attempts) {
-        // Back along the tool axis by the distance come along it: the palm
-        // goes back through the way the gripper came. The straight line back
-        // to the start cuts across it where the centring moved the tool
-        // sideways, through neighbouring fruit.
-        Eigen::Isometry3d g = tool();
-        const Eigen::Vector3d axis = g.rotation().col(2);
-        g.translation() -= std::max(0.0, (g.translation() - ir_start_).dot(axis)) * axis;
-        start_goal(g, State::kBackoff, now, out);
+        // Back along the tool axis to abreast of where IR guidance began
+        // (the straight line back to that point cuts sideways through
+        // neighbouring fruit where the centring moved the tool).
+        start_goal(back_along_axis(ir_start_, 0.0), State::kBackoff, now, out);
       } else {
         fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered", true, now, out);
       }

@@ -3,7 +3,8 @@
 // no logging: ServoControllerNode wires it to the bus.
 //
 //   IDLE -START-> ([RETREAT ->] RETURN, if not at home) -> SELECT -> ORIENT -> ACQUIRE -> APPROACH
-//     -> IR_APPROACH -> GRASP -> DETACH [-> DROP] -> RELEASE [-> RETREAT] -> RETURN -> SELECT ... -> DONE (no reachable fruit left)
+//     -> IR_APPROACH -> GRASP -> DETACH [-> DROP] -> RELEASE [-> RETREAT] -> RETURN -> SELECT ... -> DONE (no reachable
+//     fruit left)
 //   failures: APPROACH <-> REACQUIRE -> LOST; IR_APPROACH -> BACKOFF -> IR_APPROACH
 //     -> FAILED_GRASP; each then RETREAT -> RETURN -> SELECT. Faults -> FAULT
 //     (until RESET_FAULT), emergency stop -> ESTOP (latched until cleared).
@@ -167,11 +168,14 @@ class HarvestMachine {
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis.
   void orient(rt::Micros now, MachineOutput& out);
-  // RETREAT goal: back along the tool axis by retreat_distance, or out of
-  // the canopy by the way the gripper came in (to abreast of where the
-  // approach began), whichever is farther. A straight line home from inside
-  // the canopy cuts sideways through neighbouring fruit.
-  Eigen::Isometry3d retreat_goal() const;
+  // The tool moved straight back along its axis, in its orientation: to
+  // abreast of `abreast_of` (if given) or by `at_least`, whichever is
+  // farther. The palm retraces the way the gripper came in; a straight line
+  // to an earlier point cuts sideways through neighbouring fruit.
+  Eigen::Isometry3d back_along_axis(const std::optional<Eigen::Vector3d>& abreast_of, double at_least) const;
+  // RETREAT goal: back by retreat_distance, or out of the canopy to abreast
+  // of where the approach began, whichever is farther.
+  Eigen::Isometry3d retreat_goal() const { return back_along_axis(approach_from_, cfg_.retreat_distance); }
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
