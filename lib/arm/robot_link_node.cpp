@@ -229,16 +229,27 @@ void RobotLinkNode::begin_shutdown() {
   spdlog::info("stopping the arm and disabling the drives");
 }
 
-void RobotLinkNode::limit_event(const std::string& why) {
+void RobotLinkNode::limit_event(const std::string& why, bool always_log) {
   ++limit_events_;
   limit_text_ = why;
   count("limit_events");
-  spdlog::warn("command limited: {}", why);
+  const Micros t = now();
+  if (!always_log && logged_limit_at_ != 0 && t - logged_limit_at_ < rt::kSecond) {
+    ++unlogged_limit_events_;
+    return;
+  }
+  if (unlogged_limit_events_ > 0)
+    spdlog::warn("command limited: {} (and {} limit events not logged in the {:.1f} s before)", why,
+                 unlogged_limit_events_, rt::to_seconds(t - logged_limit_at_));
+  else
+    spdlog::warn("command limited: {}", why);
+  logged_limit_at_ = t;
+  unlogged_limit_events_ = 0;
 }
 
 void RobotLinkNode::refuse(const harvest::robot_command_t& cmd, const std::string& why) {
   refused_ = true;
-  limit_event("command seq " + std::to_string(cmd.header.seq) + " refused: " + why);
+  limit_event("command seq " + std::to_string(cmd.header.seq) + " refused: " + why, true);
   count("commands_refused");
 }
 

@@ -181,7 +181,7 @@ class RobotLinkNode final : public rt::Node {
   void continue_planning();
   void pose_goal_unreachable(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal,
                              const std::string& why);
-  void limit_event(const std::string& why);
+  void limit_event(const std::string& why, bool always_log = false);
   // This period's joint velocity command (all limits applied) for the active command.
   Eigen::VectorXd command_velocity(double dt);
   void supervise();
@@ -213,6 +213,11 @@ class RobotLinkNode final : public rt::Node {
   bool limited_now_ = false;
   bool refused_ = false;
   std::string limit_text_;
+  // Limits that come and go every control period (or two that alternate)
+  // are logged at most once a second, with how many events the line stands
+  // for, not 50 times a second; refusals are always logged.
+  Micros logged_limit_at_ = 0;
+  int unlogged_limit_events_ = 0;
   Micros enable_started_ = 0;
   bool enable_timed_out_ = false;
   Micros last_sync_ = 0;

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include <Eigen/SVD>
 #include <cmath>
@@ -14,6 +16,7 @@
 #include <harvest/robot_command_t.hpp>
 #include <harvest/robot_state_t.hpp>
 #include <memory>
+#include <sstream>
 #include <tuple>
 
 #include "can/memory_bus.hpp"
@@ -574,6 +577,37 @@ TEST(RobotLinkNode, LinearSpeedIsLimitedAndReported) {
   EXPECT_GE(b.num_limit_events, 1);
   EXPECT_NE(b.fault_text.find("linear speed"), std::string::npos) << b.fault_text;
   EXPECT_EQ(b.mode, +robot_state_t::MODE_MOVING);
+}
+
+// Two limits taking turns with every command (seen on the tree: linear, then
+// angular speed) are each an event on the robot state, but the log gets at
+// most one line a second, saying how many events it stands for.
+TEST(RobotLinkNode, LimitsThatComeAndGoAreLoggedAtMostOnceASecond) {
+  std::ostringstream captured;
+  const auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("capture", std::make_shared<spdlog::sinks::ostream_sink_st>(captured)));
+  RobotLinkConfig c = default_config();
+  c.limits.linear_speed = 0.2;
+  c.limits.angular_speed = 0.3;
+  Rig rig(std::move(c));
+  rig.start();
+  const auto linear = twist_command(0.0, 0.0, 1.0);
+  const auto angular = twist_command(0.0, 0.0, 0.0, 0.0, 0.0, 2.0);
+  const int32_t before = rig.last().num_limit_events;
+  rig.run(3.0, [&rig, &linear, &angular, n = 0]() mutable {
+    if (n % 20 == 0) rig.inject(ch::kRobotCommand, (n / 20) % 2 ? angular : linear);
+    ++n;
+  });
+  spdlog::set_default_logger(previous);
+  const std::string log = captured.str();
+  int lines = 0;
+  for (std::size_t at = log.find("command limited"); at != std::string::npos; at = log.find("command limited", at + 1))
+    ++lines;
+  EXPECT_GE(rig.last().num_limit_events - before, 50) << "each change of limit is still an event";
+  EXPECT_GE(lines, 2);
+  EXPECT_LE(lines, 4) << log;
+  EXPECT_NE(log.find("limit events not logged"), std::string::npos) << log;
 }
 
 TEST(RobotLinkNode, WorkspaceBoundaryIsNeverCrossed) {
