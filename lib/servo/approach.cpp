@@ -41,6 +41,14 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
   }
   // Eq. 6-27, 6-28 along the axis, or the constant IR-guided speed.
   v.z() = in.forward_speed ? *in.forward_speed : gains_.kp_depth * e.z() + gains_.kd_depth * error_rate_.z();
+  // ... but no faster than the centring converges: the lateral error decays
+  // as exp(-kp t), so arriving centred within the tolerance takes at least
+  // ln(error / tolerance) / kp. A gripper that outruns its centring arrives
+  // beside the fruit, closes on nothing and its fingers or palm knock
+  // neighbours off.
+  const double lateral = e.head<2>().norm();
+  if (in.pixel && gains_.kp_lateral > 0.0 && gains_.centring_tolerance > 0.0 && lateral > gains_.centring_tolerance)
+    v.z() = std::min(v.z(), gains_.kp_lateral * e.z() / std::log(lateral / gains_.centring_tolerance));
   ApproachOutput out;
   out.twist.linear = rc * v;
   out.error_camera = e;

@@ -38,6 +38,9 @@ struct Gains {
   double kp_depth = 1.0;           // [1/s] on the depth error (eq. 6-27)
   double kd_depth = 0.0;           // [s]
   double derivative_filter = 0.5;  // low-pass weight of the newest error derivative, 0..1
+  // [m] advance no faster than the centring can bring the fruit within this
+  // of the gripper axis by the time the gripper gets there (0: no bound)
+  double centring_tolerance = 0.005;
 };
 
 struct Timeouts {
