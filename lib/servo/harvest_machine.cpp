@@ -317,6 +317,15 @@ bool HarvestMachine::goal_stalled(rt::Micros now) {
 void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out) {
   switch (state_) {
     case State::kOrient:
+      // The aim is a means to get the fruit into the hand image: an arm that
+      // stopped short of it (a joint limit a few millimetres before the
+      // viewpoint) with the fruit well inside the image acquires it from there.
+      if (estimate_in_hand_view()) {
+        note_ = "fruit " + std::to_string(current_->id) + ": the turn " + why + " short of its goal, the fruit in view";
+        approach_from_ = tool().translation();
+        enter(State::kAcquire, now, out);
+        break;
+      }
       // Aiming happens at home or at a viewpoint outside the canopy, so the
       // arm is still clear of it: the fruit is out of its reach from there;
       // others may not be.
@@ -328,6 +337,7 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
                    out);  // back to home first: the viewpoint is reached from there
         break;
       }
+      attempts_[current_->id] = cfg_.max_attempts_per_fruit;  // what the arm cannot reach now it never will
       fail_fruit(fruit_outcome_t::UNREACHABLE,
                  (current_->from_viewpoint ? "the arm could not reach a viewpoint of it ("
                                            : "the arm could not turn to it (") +
@@ -355,6 +365,16 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       fault("motion " + why + " in " + state_name(state_), now, out);
       break;
   }
+}
+
+bool HarvestMachine::estimate_in_hand_view() const {
+  // Inside the middle of the image (a margin of a fifth of each side), so the
+  // fruit, its estimate's error and the first centring motion stay in view.
+  constexpr double kMargin = 0.2;
+  const CameraIntrinsics& k = cfg_.hand_camera;
+  Eigen::Vector2d px;
+  return project_point(k, camera().inverse() * current_->estimate, px) && px.x() >= kMargin * k.width &&
+         px.x() <= (1.0 - kMargin) * k.width && px.y() >= kMargin * k.height && px.y() <= (1.0 - kMargin) * k.height;
 }
 
 bool HarvestMachine::goal_reached() const {
@@ -396,11 +416,12 @@ void HarvestMachine::record(int8_t outcome, int fruit_id, const Eigen::Vector3d&
   // A picked fruit has left the tree, and with it its fixed-camera target:
   // an id still seen afterwards is a fruit still there (the camera-in-hand
   // followed a neighbour to the grasp, or the tracker passed the id on), so
-  // it may be tried again. Any other fruit is given up for good once
-  // unreachable or out of attempts.
+  // it may be tried again. Any other fruit is given up for good once out of
+  // attempts (a certain verdict, such as a line of sight out of reach or an
+  // arm that cannot turn to it, uses them all up).
   if (outcome == fruit_outcome_t::PICKED) {
     attempts_.erase(fruit_id);
-  } else if (outcome == fruit_outcome_t::UNREACHABLE || attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
+  } else if (attempts_[fruit_id] >= cfg_.max_attempts_per_fruit) {
     finished_.insert(fruit_id);
     const Eigen::Vector3d at = current_ && current_->id == fruit_id ? current_->selected_from : target;
     finished_at_[fruit_id] = at;
@@ -586,9 +607,12 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
       f.estimate = sight_aim(*f.sight, s, tool().translation());
       f.depth_doubtful = true;
     }
-    // Fruit whose fixed-camera depth is plausible first, then the doubtful ones.
-    if (best == nullptr || std::make_tuple(f.depth_doubtful, t.cost, t.fruit_id) <
-                               std::make_tuple(chosen->depth_doubtful, best->cost, best->fruit_id)) {
+    // Fruit not tried yet first (a fruit that failed is tried again once its
+    // neighbours are off the tree: fruit seen together come apart), and among
+    // them those whose fixed-camera depth is plausible first.
+    if (best == nullptr ||
+        std::make_tuple(attempts_[t.fruit_id], f.depth_doubtful, t.cost, t.fruit_id) <
+            std::make_tuple(attempts_[best->fruit_id], chosen->depth_doubtful, best->cost, best->fruit_id)) {
       best = &t;
       chosen = f;
     }
@@ -763,8 +787,12 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
     const auto& b = f.bbox_px;
     if (f.diameter_px >= kFills * msg.image_height && f.diameter_px > kNearer * expected_px &&
         b[0] <= cfg_.hand_camera.u0 && cfg_.hand_camera.u0 <= b[0] + b[2] && b[1] <= cfg_.hand_camera.v0 &&
-        cfg_.hand_camera.v0 <= b[1] + b[3])
+        cfg_.hand_camera.v0 <= b[1] + b[3]) {
       fruit_fills_view_rx_ = now;
+      // How far its centre is off the gripper axis, in fruit diameters.
+      fruit_in_front_offset_ = std::hypot(f.u_px - cfg_.hand_camera.u0, f.v_px - cfg_.hand_camera.v0) /
+                               std::max(1.0f, f.diameter_px) * current_->diameter;
+    }
   }
   // Where the current fruit is in this image: near our last centroid while
   // we follow it; else on the image of the fixed camera's line of sight
@@ -1159,7 +1187,9 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       const Eigen::Isometry3d t = tool();
       if (!current_->depth_doubtful && !cfg_.workspace.contains(current_->estimate)) {
         // Measured by the camera-in-hand (eq. 6-15) where the arm may not go:
-        // a fruit beyond reach that the fixed camera's depth put nearer.
+        // a fruit beyond reach that the fixed camera's depth put nearer, or a
+        // measurement gone wrong in a cluttered view (a neighbour's fragment
+        // followed); not certain, so it counts as one attempt.
         const bool moved = (t.translation() - cfg_.home_pose.translation()).norm() > 0.5 * cfg_.retreat_distance;
         fail_fruit(fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace", moved, now,
                    out);
@@ -1219,6 +1249,17 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         out.status_changed = true;
       }
       const bool inside = at_grasp_range && !leaf;
+      if (inside && fruit_in_front && fruit_in_front_offset_ > cfg_.front_fruit_tolerance) {
+        // A fruit in front of the one aimed at, too far off the gripper axis
+        // to be captured: closing would knock it off with a finger, pushing
+        // on with the palm. Leave it for its own turn; this fruit is tried
+        // again after it.
+        fail_fruit(fruit_outcome_t::FAILED_GRASP,
+                   "a fruit in the way, " + std::to_string(std::lround(fruit_in_front_offset_ * 1000)) +
+                       " mm off the gripper axis",
+                   true, now, out);
+        return;
+      }
       if (inside) {
         // Thesis HarvestStep5: stop and close the gripper on the fruit.
         out.robot = stop_command();

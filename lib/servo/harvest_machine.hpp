@@ -133,6 +133,8 @@ class HarvestMachine {
   void enter(State s, rt::Micros now, MachineOutput& out);
   void start_goal(const Eigen::Isometry3d& goal, State s, rt::Micros now, MachineOutput& out);
   bool goal_reached() const;
+  // The current fruit's estimate projects well inside the hand camera's image.
+  bool estimate_in_hand_view() const;
   // A pose-goal motion that gets no closer to its goal for timeouts.stall
   // (the arm is blocked, e.g. at a joint limit) is not waited out.
   bool goal_stalled(rt::Micros now);
@@ -220,6 +222,7 @@ class HarvestMachine {
   bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
   std::optional<Eigen::Vector3d> pixel_crossing_;  // ... where its ray crosses the fixed camera's line of sight
   rt::Micros fruit_fills_view_rx_ = 0;  // last hand image with a fruit filling it on the gripper axis (0: none)
+  double fruit_in_front_offset_ = 0.0;  // ... its centre's distance from the gripper axis [m]
   std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 

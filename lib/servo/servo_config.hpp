@@ -77,6 +77,10 @@ struct ServoConfig {
   // [m] > 0: an IR grasp reading counts only with the triangulated fruit
   // centre no farther ahead (a leaf in front of it); 0: off
   double ir_vision_agreement = 0.07;
+  // [m] a fruit in front of the one aimed at, filling the hand image when the
+  // IR reads the grasp range, is closed on only with its centre this near the
+  // gripper axis; farther off, the attempt is given up (it would be knocked off)
+  double front_fruit_tolerance = 0.015;
   int ir_attempts = 2;                // IR approaches per fruit (thesis: retry once)
   double orient_tolerance = 0.02;     // [rad] orientation reached
   double position_tolerance = 0.005;  // [m] pose goal reached
@@ -84,7 +88,7 @@ struct ServoConfig {
   double pull_distance = 0.10;        // [m] detach: pull back along the tool axis ...
   double twist_angle = 0.5236;        // [rad] ... while twisting about it
   bool release_at_detach = true;      // open the gripper where the pull ended (false: carry it to drop_pose first)
-  int max_attempts_per_fruit = 1;     // a failed fruit is retried at most this many times in total
+  int max_attempts_per_fruit = 2;     // attempts per fruit in total; a failed one is retried after every untried one
   double association_gate_px = 80.0;  // hand detection must lie this close to the predicted pixel
   double min_ahead_of_home = 0.05;    // [m] a target must lie this far ahead of the tool at home, along its axis
   // A fruit more than max_aim_angle off the gripper axis at home, or one the

@@ -377,6 +377,39 @@ TEST(ClosedLoop, FruitInFrontOfTheOneAimedAtIsGraspedNotPushedPast) {
   EXPECT_FALSE(ever_noted(loop, "past a leaf"));
 }
 
+// The fruit in front lies 2 cm beside the gripper's path: the IR reads it,
+// but a closing finger would knock it off and pushing on would too. The
+// attempt is given up without closing; the fruit in front is picked in its
+// own turn, and the one aimed at after it.
+TEST(ClosedLoop, FruitInFrontBesideTheGripperAxisIsNeitherGraspedNorPushedPast) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_reports_filling = true;
+  const Eigen::Vector3d aimed = spec.fruits[0].position;
+  const Eigen::Vector3d path = (aimed - spec.start_tool.translation()).normalized();
+  // Off the plane of the two cameras' rays, so the camera-in-hand keeps
+  // following the fruit aimed at (its image lies on the fixed camera's line of sight).
+  const Eigen::Vector3d beside = path.cross((aimed - spec.fixed_camera).normalized()).normalized();
+  const Eigen::Vector3d in_front = aimed - 0.15 * path + 0.02 * beside;  // inside the IR beam (26 mm)
+  spec.fruits.push_back({2, in_front, 0.075});
+  ServoConfig cfg = test_config();
+  cfg.max_attempts_per_fruit = 2;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();
+  const auto& outcomes = loop.ctrl.machine().outcomes();
+  ASSERT_GE(outcomes.size(), 3u);
+  EXPECT_EQ(outcomes[0].fruit_id, 1);
+  EXPECT_EQ(outcomes[0].outcome, +fruit_outcome_t::FAILED_GRASP);
+  EXPECT_EQ(outcomes[0].detail.rfind("a fruit in the way, ", 0), 0u) << outcomes[0].detail;
+  EXPECT_EQ(outcomes[1].fruit_id, 2);
+  EXPECT_EQ(outcomes[1].outcome, +fruit_outcome_t::PICKED);
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  EXPECT_FALSE(ever_noted(loop, "past a leaf"));
+  expect_within_limits(loop);
+}
+
 // ... but not with a depth from the apparent size alone (here the rays do
 // not cross: the fixed camera's estimate is 145 mm off across its line of
 // sight): that depth may be decimetres off, and the IR reading is taken.
@@ -894,6 +927,30 @@ TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachable) {
   expect_within_limits(loop);
 }
 
+// The camera-in-hand's measurement is an estimate (a neighbour's fragment
+// followed in a cluttered view reads far): with attempts left the fruit is
+// tried again after the others, not given up for good at once.
+TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsTriedAgainWhileAttemptsRemain) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.fruits.insert(spec.fruits.begin(), FruitTruth{7, {0.2, 1.6, -0.3}, 0.075});
+  spec.fixed_depth_scale = 0.8;
+  ServoConfig cfg = test_config();
+  cfg.max_attempts_per_fruit = 2;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
+  const auto published = published_outcomes(loop, 7);
+  ASSERT_EQ(published.size(), 2u);
+  for (const auto& o : published) {
+    EXPECT_EQ(o.outcome, +fruit_outcome_t::UNREACHABLE);
+    EXPECT_EQ(o.detail, "the camera-in-hand measures it outside the workspace");
+  }
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  EXPECT_FALSE(loop.world.fruit_picked(7));
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, FruitOutOfReachAlongItsWholeLineOfSightIsSkipped) {
   // High above the workspace: no point of its line of sight is both inside
   // the workspace and ahead of the gripper at home.
@@ -1014,6 +1071,32 @@ TEST(ClosedLoop, AFailedFruitIsNotRetriedForever) {
   expect_motion_stopped(loop);
 }
 
+// A fruit whose first attempt failed is tried again only after every fruit
+// not yet tried: on a tree, the neighbours picked in between are often what
+// made it fail (fruit seen together as one, a neighbour followed instead).
+TEST(ClosedLoop, AFailedFruitIsTriedAgainAfterTheUntriedOnes) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error = Eigen::Vector3d(0.01, -0.02, 0.03);
+  spec.fruits = {{1, {-0.2667, 1.0160, -0.5402}, 0.075}, {2, {-0.0686, 1.1684, -0.3751}, 0.075}};
+  spec.gripper_misses_first = 1;
+  ServoConfig cfg = test_config();
+  cfg.max_attempts_per_fruit = 2;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();
+  const auto& outcomes = loop.ctrl.machine().outcomes();
+  ASSERT_EQ(outcomes.size(), 3u);
+  EXPECT_EQ(outcomes[0].fruit_id, 1);  // the cheaper fruit first ...
+  EXPECT_EQ(outcomes[0].outcome, +fruit_outcome_t::FAILED_GRASP);
+  EXPECT_EQ(outcomes[1].fruit_id, 2);  // ... then the one not tried yet ...
+  EXPECT_EQ(outcomes[1].outcome, +fruit_outcome_t::PICKED);
+  EXPECT_EQ(outcomes[2].fruit_id, 1);  // ... then the failed one again
+  EXPECT_EQ(outcomes[2].outcome, +fruit_outcome_t::PICKED);
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  expect_motion_stopped(loop);
+}
+
 TEST(ClosedLoop, AFruitGivenUpIsNotTriedAgainUnderANewFixedCameraId) {
   // The arm hides the fruit from the fixed camera, whose tracker then gives
   // it a new id: the same fruit at the same place is not attempted again.
@@ -1081,6 +1164,7 @@ TEST(ClosedLoop, OrientThatStallsMakesTheFruitUnreachable) {
   spec.arm_ignores_goals_after_s = 0.0;
   ServoConfig cfg = test_config();
   cfg.timeouts.stall = 1.0;
+  cfg.max_attempts_per_fruit = 2;  // a fruit the arm cannot reach is not tried a second time
   Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0)) << loop.ctrl.machine().summary();
@@ -1088,6 +1172,7 @@ TEST(ClosedLoop, OrientThatStallsMakesTheFruitUnreachable) {
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::UNREACHABLE);
   EXPECT_EQ(loop.outcome(1)->detail, "the arm could not reach a viewpoint of it (stalled)");
   EXPECT_LT(loop.outcome(1)->cycle_time_s, 2.5);  // two stalls, not the 20 s motion timeouts
+  EXPECT_EQ(published_outcomes(loop, 1).size(), 1u);
   const std::vector<std::string> expected{"SELECT", "ORIENT", "RETURN", "ORIENT", "RETURN"};
   const auto states = published_states(loop);
   const auto select = std::find(states.begin(), states.end(), "SELECT");
@@ -1144,6 +1229,48 @@ TEST(ClosedLoop, FruitFarOffTheAxisAtHomeIsAimedAtFromAViewpoint) {
   EXPECT_LT(std::acos(std::clamp(goal.linear().col(2).dot((fruit - goal.translation()).normalized()), -1.0, 1.0)),
             0.03);
   expect_within_limits(loop);
+}
+
+// The arm stops 8 mm short of the viewpoint (a joint limit; the robot link
+// runs the straight path "as near as it gets") and never reaches the goal's
+// 5 mm tolerance: the fruit is well inside the hand image, so it is acquired
+// from there and picked, not given up as unreachable.
+TEST(ClosedLoop, OrientThatStopsShortWithTheFruitInViewGoesOn) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_depth_scale = 1.0;
+  spec.fruits = {FruitTruth{1, Eigen::Vector3d(-0.05, 0.92, -0.30), 0.075}};  // aimed at from a viewpoint
+  spec.arm_first_goal_stops_short_m = 0.008;
+  ServoConfig cfg = test_config();
+  cfg.timeouts.stall = 1.0;
+  ASSERT_GT(spec.arm_first_goal_stops_short_m, cfg.position_tolerance);
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(ever_noted(loop, "fruit 1: the turn stalled short of its goal, the fruit in view"));
+  expect_within_limits(loop);
+}
+
+// ... but a turn blocked before the fruit is in view still gives it up (see
+// OrientThatStallsMakesTheFruitUnreachable): stopped 0.4 m short of the
+// viewpoint, the fruit lies outside the middle of the hand image.
+TEST(ClosedLoop, OrientThatStopsFarShortOfItsGoalIsNotTakenAsAimed) {
+  WorldSpec spec = experiment_one();
+  spec.fixed_error.setZero();
+  spec.hand_depth_scale = 1.0;
+  spec.fruits = {FruitTruth{1, Eigen::Vector3d(-0.05, 0.92, -0.30), 0.075}};
+  spec.arm_first_goal_stops_short_m = 0.4;
+  ServoConfig cfg = test_config();
+  cfg.timeouts.stall = 1.0;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 30.0)) << loop.ctrl.machine().summary();
+  ASSERT_TRUE(loop.outcome(1));
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::UNREACHABLE);
+  EXPECT_FALSE(ever_noted(loop, "the fruit in view"));
+  expect_motion_stopped(loop);
 }
 
 TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {

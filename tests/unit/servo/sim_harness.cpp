@@ -87,6 +87,9 @@ void ArmDouble::step() {
     const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
     const Eigen::Vector3d dp = goal.translation() - tool_.translation();
     v = clamp_norm(dp / dt, cmd_->max_linear_speed);
+    if (!first_goal_id_) first_goal_id_ = cmd_->goal_id;
+    if (spec_.arm_first_goal_stops_short_m && cmd_->goal_id == *first_goal_id_)
+      v = clamp_norm(v, std::max(0.0, dp.norm() - *spec_.arm_first_goal_stops_short_m) / dt);
     const Eigen::AngleAxisd err(goal.rotation() * tool_.rotation().transpose());
     w = clamp_norm(err.axis() * err.angle() / dt, cmd_->max_angular_speed);
   }
@@ -294,7 +297,8 @@ void WorldDouble::publish_gripper() {
   if (gripper_ == gripper_state_t::STATE_CLOSING && now() - closing_since_ >= 300 * rt::kMilli &&
       !spec_.gripper_stuck) {
     gripper_ = gripper_state_t::STATE_CLOSED;
-    for (std::size_t i = 0; i < spec_.fruits.size() && !spec_.gripper_misses; ++i) {
+    const bool misses = spec_.gripper_misses || ++closures_ <= spec_.gripper_misses_first;
+    for (std::size_t i = 0; i < spec_.fruits.size() && !misses; ++i) {
       if (where_[i] == Where::kTree && (spec_.fruits[i].position - arm_.tool().translation()).norm() < 0.03) {
         where_[i] = Where::kGripper;
         gripper_ = gripper_state_t::STATE_HOLDING;
@@ -332,7 +336,11 @@ Eigen::Isometry3d thesis_start_pose() {
 
 ServoConfig test_config() {
   const auto doc = config::Document::load_string("{}");
-  return ServoConfig::from_yaml(doc.root());
+  ServoConfig c = ServoConfig::from_yaml(doc.root());
+  // One attempt per fruit: each failure path is seen once; the tests of the
+  // retry ask for more.
+  c.max_attempts_per_fruit = 1;
+  return c;
 }
 
 WorldSpec experiment_one() {

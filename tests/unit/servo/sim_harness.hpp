@@ -105,12 +105,16 @@ struct WorldSpec {
   // as a triangulating sensor does nearer than its peak.
   std::optional<double> ir_fold_back_below_m;
   bool gripper_misses = false;                      // closes on nothing
+  int gripper_misses_first = 0;                     // ... the first this many closures only
   bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
   std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
   std::optional<double> arm_blocked_after_s;        // no command moves the arm any more (it reports MOVING)
   // A pose goal that keeps the tool where it is and turns it more than this
   // is acknowledged but never executed (no joint solution for that turn).
   std::optional<double> arm_max_turn_in_place;
+  // The first pose goal (the first ORIENT) stops this far short of its
+  // position (a joint limit just before it) and is never reached.
+  std::optional<double> arm_first_goal_stops_short_m;
   bool fruit_slips = false;          // a held fruit falls out of the gripper 0.2 s after the grasp
   bool fixed_camera_silent = false;  // no fixed-camera TARGETS at all
   bool fixed_ids_follow_order =
@@ -144,6 +148,7 @@ class ArmDouble final : public rt::Node {
   rt::Micros cmd_rx_ = 0;
   rt::Micros start_ = 0;
   bool fault_ = false;
+  std::optional<int64_t> first_goal_id_;
 };
 
 // The world: sensors derived from the truth and the arm's true pose.
@@ -173,6 +178,7 @@ class WorldDouble final : public rt::Node {
   rt::Micros start_ = 0;
   int8_t gripper_ = 1;  // gripper_state_t::STATE_OPEN
   rt::Micros closing_since_ = 0;
+  int closures_ = 0;
   rt::Micros holding_since_ = 0;
   std::optional<Eigen::Vector3d> close_position_;
 };
@@ -185,7 +191,8 @@ WorldSpec experiment_one();
 // The thesis start pose: tool at (-655, 785, -251) mm, gripper axis along base +y.
 Eigen::Isometry3d thesis_start_pose();
 
-// A controller configuration for the tests (config/cameras/hand.yaml intrinsics).
+// A controller configuration for the tests (config/cameras/hand.yaml
+// intrinsics), one attempt per fruit.
 ServoConfig test_config();
 
 }  // namespace harvest::servo::testing
