@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <set>
 
 #include "harvest/gripper_command_t.hpp"
 #include "harvest/gripper_state_t.hpp"
@@ -238,11 +239,18 @@ void SimNode::check_done() {
     return;
   }
   if (!done_since_) done_since_ = t;
-  if (t - *done_since_ >= config_.done_grace_s) {
-    spdlog::info("every counted fruit is decided; ending the run");
-    publish_truth();
-    ctx().request_stop(0);
+  if (t - *done_since_ < config_.done_grace_s) return;
+  // A controller still at work (on a fruit that is not counted) finishes
+  // first: ending the world under it drops the arm's drives and the gripper
+  // board, and every process on them faults. The time limit still holds.
+  if (controller_busy()) {
+    if (!waiting_noted_) spdlog::info("every counted fruit is decided; waiting for the controller to finish");
+    waiting_noted_ = true;
+    return;
   }
+  spdlog::info("every counted fruit is decided; ending the run");
+  publish_truth();
+  ctx().request_stop(0);
 }
 
 image_t SimNode::make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width,
@@ -379,7 +387,15 @@ void SimNode::publish_gripper_state() {
   publish(channels::kGripperState, m);
 }
 
+bool SimNode::controller_busy() const {
+  // Resting (or never heard, or silent for 5 s: gone) is not busy.
+  constexpr rt::Micros kGone = 5 * rt::kSecond;
+  static const std::set<std::string> kResting{"", "IDLE", "DONE", "FAULT", "ESTOP"};
+  return !kResting.count(controller_state_) && now() - controller_heard_ < kGone;
+}
+
 void SimNode::on_harvest_status(const harvest_status_t& s) {
+  controller_heard_ = now();
   if (s.state == controller_state_) return;
   controller_state_ = s.state;
   spdlog::info("t={:.1f}s controller {} (picked {}, remaining {}, fruit {})", sim_time(), s.state, s.picked,

@@ -97,7 +97,12 @@ class SimNode final : public rt::Node {
   std::optional<double> ir_range_;
   int ir_stuck_raw_ = -1;
   rt::Micros start_ = 0;
+  // The controller's state and when it was last heard from: a run is not
+  // ended under a controller still at work.
   std::string controller_state_;
+  rt::Micros controller_heard_ = 0;
+  bool waiting_noted_ = false;
+  bool controller_busy() const;
   std::vector<FruitState> last_states_;
   std::optional<double> done_since_;
 };

@@ -1,0 +1,83 @@
+// The simulator node on the replay runner's clock: when it ends a run.
+#include "sim/sim_node.hpp"
+
+#include <gtest/gtest.h>
+
+#include "harvest/harvest_status_t.hpp"
+#include "runtime/channels.hpp"
+#include "runtime/log_io.hpp"
+#include "runtime/replay_runner.hpp"
+#include "test_scenes.hpp"
+#include "test_support.hpp"
+
+namespace harvest::sim {
+namespace {
+
+constexpr rt::Micros kT0 = 1'700'000'000'000'000;
+
+// No counted fruit (the only one is beyond the arm's reach): every counted
+// fruit is decided from the start.
+Scenario nothing_to_pick() {
+  Scenario s = test::one_fruit(Vec3(0.0, 2.0, 0.0));
+  s.time_limit_s = 30.0;
+  return s;
+}
+
+// Replays HARVEST_STATUS messages with the given states at the given times
+// through a simulator; returns the log time of its last SIM_TRUTH [s after kT0].
+double last_truth_s(const std::vector<std::pair<double, std::string>>& statuses) {
+  harvest::testing::TempDir dir;
+  std::vector<rt::LogRecord> in;
+  // A first event at the start, so the node attaches at kT0.
+  in.push_back({kT0, "UNRELATED", std::vector<uint8_t>{0}});
+  for (const auto& [s, state] : statuses) {
+    harvest_status_t st{};
+    st.header.utime = kT0 + rt::from_seconds(s);
+    st.state = state;
+    st.current_fruit_id = -1;
+    in.push_back({st.header.utime, channels::kHarvestStatus, rt::encode(st)});
+  }
+  rt::write_log(dir / "in.lcm", in);
+  rt::ReplayOptions o;
+  o.input_log = dir / "in.lcm";
+  o.output_log = dir / "out.lcm";
+  o.tail = rt::from_seconds(40.0);
+  SimConfig config;
+  config.done_grace_s = 2.0;
+  SimNode node(config, nothing_to_pick());
+  rt::ReplayRunner runner(o);
+  runner.add(node);
+  runner.run();
+  double last = -1.0;
+  for (const auto& r : rt::read_log(dir / "out.lcm"))
+    if (r.channel == kSimTruthChannel) last = rt::to_seconds(r.timestamp - kT0);
+  return last;
+}
+
+TEST(SimNode, WithNoControllerTheRunEndsOnceEveryCountedFruitIsDecidedAndTheGracePassed) {
+  const double end = last_truth_s({});
+  EXPECT_GE(end, 2.0);
+  EXPECT_LT(end, 2.2);
+}
+
+// A controller still at work (here on a fruit that is not counted) is let
+// finish: ending the world drops the arm's drives and the gripper board under
+// it, and every process on them faults. Once it rests the run ends.
+TEST(SimNode, NeverEndsTheRunUnderAControllerAtWork) {
+  std::vector<std::pair<double, std::string>> statuses;
+  for (int i = 0; i <= 16; ++i) statuses.emplace_back(0.5 * i, "IR_APPROACH");  // at work for 8 s
+  statuses.emplace_back(8.2, "DONE");
+  const double end = last_truth_s(statuses);
+  EXPECT_GE(end, 8.2);
+  EXPECT_LT(end, 8.4);
+}
+
+// ... unless it falls silent (a controller that died is not waited for).
+TEST(SimNode, ASilentControllerIsNotWaitedFor) {
+  const double end = last_truth_s({{0.5, "APPROACH"}, {1.0, "APPROACH"}});
+  EXPECT_GE(end, 6.0);  // 5 s after it was last heard
+  EXPECT_LT(end, 6.2);
+}
+
+}  // namespace
+}  // namespace harvest::sim
