@@ -8,6 +8,7 @@
 namespace harvest::servo {
 
 void ReconstructionApproach::reset() {
+  seen_.clear();
   last_utime_.reset();
   last_error_.setZero();
   error_rate_.setZero();
@@ -23,6 +24,19 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
     const Eigen::Vector2d m = undistort_pixel(camera_, in.pixel->u, in.pixel->v);
     e.x() = m.x() * depth;
     e.y() = m.y() * depth;
+    if (in.forward_speed && gains_.sway_window > 0.0) {
+      // Under IR guidance (near the fruit, centred, its depth good): the mean
+      // of its positions over the window, seen from the camera now. Earlier
+      // views are left out: far off the image centre, their depth error moves
+      // them sideways.
+      if (seen_.empty() || in.pixel->utime > seen_.back().utime) seen_.push_back({in.pixel->utime, in.camera * e});
+      while (seen_.front().utime < in.pixel->utime - rt::from_seconds(gains_.sway_window)) seen_.pop_front();
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const auto& s : seen_) mean += s.base;
+      const Eigen::Vector3d q = in.camera.inverse() * (mean / static_cast<double>(seen_.size()));
+      e.x() = q.x();
+      e.y() = q.y();
+    }
     // Derivative only from new measurements, low-pass filtered (images are noisy).
     if (last_utime_ && in.pixel->utime > *last_utime_) {
       const double dt = rt::to_seconds(in.pixel->utime - *last_utime_);

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -61,6 +62,13 @@ class ReconstructionApproach final : public ApproachStrategy {
   ApproachOutput update(const ApproachInput& in) override;
 
  private:
+  // The fruit's base-frame position from each new hand measurement (pixel
+  // ray at the estimated depth), for the mean over gains.sway_window.
+  struct Seen {
+    rt::Micros utime;
+    Eigen::Vector3d base;
+  };
+  std::deque<Seen> seen_;
   Gains gains_;
   CameraIntrinsics camera_;
   std::optional<rt::Micros> last_utime_;

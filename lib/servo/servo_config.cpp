@@ -137,6 +137,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.gains.kd_depth = g.get("kd_depth", c.gains.kd_depth, nonneg);
   c.gains.derivative_filter = g.get("derivative_filter", c.gains.derivative_filter, {0.0, 1.0});
   c.gains.centring_tolerance = g.get("centring_tolerance", c.gains.centring_tolerance, nonneg);
+  c.gains.sway_window = g.get("sway_window", c.gains.sway_window, nonneg);
 
   const config::Node t = n.child("timeouts_s");
   Timeouts& to = c.timeouts;

@@ -41,6 +41,12 @@ struct Gains {
   // [m] advance no faster than the centring can bring the fruit within this
   // of the gripper axis by the time the gripper gets there (0: no bound)
   double centring_tolerance = 0.005;
+  // [s] under IR guidance, centre on the fruit's mean position over this long
+  // (0: on its newest position). A fruit swaying in the wind keeps moving
+  // during the gripper's blind close: from its mean it is at most one sway
+  // amplitude away when the fingers meet, from where it was last seen up to
+  // nearly two.
+  double sway_window = 2.5;
 };
 
 struct Timeouts {

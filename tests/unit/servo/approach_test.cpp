@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 namespace harvest::servo {
 namespace {
@@ -50,6 +51,39 @@ TEST(ReconstructionApproach, CentredWithinTheToleranceTheForwardSpeedIsAsAsked) 
   g.centring_tolerance = 0.0;  // no bound
   ReconstructionApproach b(g, pinhole());
   EXPECT_NEAR(b.update(at_fruit(0.05, pinhole(), 0.3)).twist.linear.z(), 0.3, 1e-9);
+}
+
+// A fruit swaying +-15 mm at 0.4 Hz across the axis, 0.3 m ahead, followed
+// for one whole period under IR guidance and last seen at the crest of its
+// swing: the gripper is steered to the middle of the sway (the mean over the
+// window), not to where the fruit happens to be.
+TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
+  Gains g;
+  g.kp_lateral = 2.0;
+  g.kd_lateral = 0.0;
+  g.sway_window = 2.5;
+  auto follow = [&](Gains gains, std::optional<double> forward) {
+    ReconstructionApproach a(gains, pinhole());
+    ApproachOutput out;
+    for (int i = 0; i <= 75; ++i) {  // 30 Hz for 2.5 s, from a quarter period: ends at the crest
+      const double t = 0.625 + i / 30.0;
+      const double x = 0.015 * std::sin(2.0 * std::numbers::pi * 0.4 * t);
+      ApproachInput in;
+      in.now = rt::from_seconds(t);
+      in.fruit_base = Eigen::Vector3d(x, 0.0, 0.3);
+      in.pixel = PixelMeasurement{pinhole().u0 + pinhole().fx * x / 0.3, pinhole().v0, in.now};
+      in.forward_speed = forward;
+      out = a.update(in);
+    }
+    return out;
+  };
+  const ApproachOutput mean = follow(g, 0.1);
+  EXPECT_LT(std::abs(mean.error_camera.x()), 0.001);  // the middle of the sway (the window's 76 samples: not exactly 0)
+  EXPECT_LT(std::abs(mean.twist.linear.x()), 0.002);
+  // Before IR guidance, and with no window, the newest position: the crest.
+  EXPECT_NEAR(follow(g, std::nullopt).error_camera.x(), 0.015, 1e-6);
+  g.sway_window = 0.0;
+  EXPECT_NEAR(follow(g, 0.1).error_camera.x(), 0.015, 1e-6);
 }
 
 }  // namespace
