@@ -211,7 +211,8 @@ gripper_command_t HarvestMachine::gripper_command(int8_t action) const {
 namespace {
 // States that command twists (the others send pose goals, STOP or nothing).
 bool twist_state(State s) {
-  return s == State::kAcquire || s == State::kApproach || s == State::kReacquire || s == State::kIrApproach;
+  return s == State::kAcquire || s == State::kApproach || s == State::kReacquire || s == State::kIrApproach ||
+         s == State::kGrasp;
 }
 }  // namespace
 
@@ -789,7 +790,8 @@ MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::M
         b[0] <= cfg_.hand_camera.u0 && cfg_.hand_camera.u0 <= b[0] + b[2] && b[1] <= cfg_.hand_camera.v0 &&
         cfg_.hand_camera.v0 <= b[1] + b[3]) {
       fruit_fills_view_rx_ = now;
-      // How far its centre is off the gripper axis, in fruit diameters.
+      // How far its centre lies off the gripper axis [m]: the pixel offset in
+      // its own apparent diameters, times the (statistical) fruit diameter.
       fruit_in_front_offset_ = std::hypot(f.u_px - cfg_.hand_camera.u0, f.v_px - cfg_.hand_camera.v0) /
                                std::max(1.0f, f.diameter_px) * current_->diameter;
     }
@@ -1261,10 +1263,12 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
         return;
       }
       if (inside) {
-        // Thesis HarvestStep5: stop and close the gripper on the fruit.
-        out.robot = stop_command();
+        // Thesis HarvestStep5: close the gripper on the fruit (the arm goes
+        // on grasp_advance while the fingers close, then stops).
         out.gripper = gripper_command(gripper_command_t::ACTION_CLOSE);
+        grasp_from_ = t.translation();
         enter(State::kGrasp, now, out);
+        grasp_step(out);
         return;
       }
       // Progress is 5 mm of tool motion: a tool that makes none for
@@ -1289,12 +1293,30 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       return;
     }
     case State::kGrasp:
+      grasp_step(out);
+      return;
     case State::kRelease:
       out.robot = stop_command();
       return;
     default:
       return;
   }
+}
+
+void HarvestMachine::grasp_step(MachineOutput& out) {
+  // The IR sensor folds back nearer than its peak, so the grasp reading comes
+  // with the fruit centre still ~2 cm ahead of the tool point: going on
+  // along the axis while the fingers close centres it between them, and a
+  // fruit swaying away along the axis during the close stays inside.
+  const Eigen::Isometry3d t = tool();
+  const Eigen::Vector3d axis = t.rotation().col(2);
+  if ((t.translation() - grasp_from_).dot(axis) >= cfg_.grasp_advance) {
+    out.robot = stop_command();
+    return;
+  }
+  Twist forward;
+  forward.linear = cfg_.ir_min_speed * axis;
+  out.robot = twist_command(forward);
 }
 
 }  // namespace harvest::servo

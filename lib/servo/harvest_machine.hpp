@@ -142,6 +142,9 @@ class HarvestMachine {
   // the arm cannot turn to it, a blocked retreat returns home directly, any
   // other blocked motion is a fault.
   void motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out);
+  // GRASP: forward along the tool axis at ir_min_speed until grasp_advance
+  // past where the gripper was told to close, then STOP.
+  void grasp_step(MachineOutput& out);
   // Forward speed under IR guidance for the range still to go (IR if it sees the fruit, else the estimate).
   double ir_forward_speed(bool ir_sees_fruit) const;
   Eigen::Isometry3d inside_workspace(const Eigen::Isometry3d& goal) const;
@@ -257,6 +260,7 @@ class HarvestMachine {
   rt::Micros ir_progress_at_ = 0;       // when the tool last moved 5 mm under IR guidance ...
   Eigen::Vector3d ir_progress_from_ = Eigen::Vector3d::Zero();  // ... from here
   Eigen::Vector3d ir_start_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d grasp_from_ = Eigen::Vector3d::Zero();  // the tool when the gripper was told to close
   // Where the approach into the canopy began (the tool at the end of ORIENT):
   // a retreat goes back along the tool axis at least that far.
   std::optional<Eigen::Vector3d> approach_from_;

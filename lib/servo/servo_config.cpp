@@ -92,6 +92,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.ir_overshoot = n.get("ir_overshoot", c.ir_overshoot, nonneg);
   c.ir_vision_agreement = n.get("ir_vision_agreement", c.ir_vision_agreement, nonneg);
   c.front_fruit_tolerance = n.get("front_fruit_tolerance", c.front_fruit_tolerance, nonneg);
+  c.grasp_advance = n.get("grasp_advance", c.grasp_advance, {0.0, 0.05});
   c.ir_attempts = n.get("ir_attempts", c.ir_attempts, {1, 10});
   c.orient_tolerance = n.get("orient_tolerance", c.orient_tolerance, pos);
   c.position_tolerance = n.get("position_tolerance", c.position_tolerance, pos);

@@ -87,6 +87,9 @@ struct ServoConfig {
   // IR reads the grasp range, is closed on only with its centre this near the
   // gripper axis; farther off, the attempt is given up (it would be knocked off)
   double front_fruit_tolerance = 0.015;
+  // [m] the arm goes on this far along the tool axis (at ir_min_speed) while
+  // the gripper closes, then stops (0: stops at once, as the thesis does)
+  double grasp_advance = 0.015;
   int ir_attempts = 2;                // IR approaches per fruit (thesis: retry once)
   double orient_tolerance = 0.02;     // [rad] orientation reached
   double position_tolerance = 0.005;  // [m] pose goal reached

@@ -1287,6 +1287,37 @@ TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
   EXPECT_EQ(loop.outcome(1)->detail, "the arm could not reach a viewpoint of it (did not complete)");
 }
 
+// At the IR grasp reading the gripper is told to close, and the arm goes on
+// grasp_advance along its axis while the fingers close (the fruit centre is
+// still ~2 cm ahead: the sensor folds back nearer), slowly, then stops;
+// grasp_advance 0 stops at once (the thesis's HarvestStep5).
+TEST(ClosedLoop, ArmGoesOnAlongTheAxisWhileTheGripperCloses) {
+  for (const double advance : {0.015, 0.0}) {
+    WorldSpec spec = experiment_one();
+    ServoConfig cfg = test_config();
+    cfg.grasp_advance = advance;
+    cfg.ir_min_speed = 0.06;  // 15 mm in 0.25 s, within the world double's 0.3 s close
+    Loop loop(spec, cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
+    const double closed_at = loop.t();
+    const Eigen::Isometry3d at_close = loop.arm.tool();
+    ASSERT_TRUE(loop.run_until_state(State::kDetach, 30.0)) << loop.ctrl.machine().summary();
+    const Eigen::Vector3d moved = loop.arm.tool().translation() - at_close.translation();
+    const Eigen::Vector3d axis = at_close.rotation().col(2);
+    EXPECT_NEAR(moved.dot(axis), advance, 0.002) << "advance " << advance;
+    EXPECT_LT((moved - moved.dot(axis) * axis).norm(), 0.001) << "straight along the axis";
+    for (const auto& c : loop.commands_after(closed_at)) {
+      if (c.type != robot_command_t::TYPE_TWIST) continue;
+      EXPECT_LE(linear_speed(c), std::max(cfg.ir_min_speed, 0.1) + 1e-9);
+    }
+    EXPECT_EQ(loop.commands_after(loop.t() - 0.05).back().type, +robot_command_t::TYPE_POSE_GOAL);  // the pull
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 30.0)) << loop.ctrl.machine().summary();
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+    expect_within_limits(loop);
+  }
+}
+
 // A stalled pull goes on to the drop; once the fruit is held, a drop the arm
 // does not carry out is a fault: the controller stops the arm and latches,
 // it does not wait 20 s.
@@ -1299,8 +1330,10 @@ TEST(ClosedLoop, FruitIsReleasedWhereThePullEnded) {
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kRelease, 30.0)) << loop.ctrl.machine().summary();
   ASSERT_TRUE(loop.world.close_position().has_value());
+  // The pull starts where the arm stopped, grasp_advance past where the
+  // gripper was told to close, and goes back along the same axis.
   const double from_grasp = (loop.arm.tool().translation() - *loop.world.close_position()).norm();
-  EXPECT_NEAR(from_grasp, loop.cfg.pull_distance, 0.01);
+  EXPECT_NEAR(from_grasp, loop.cfg.pull_distance - loop.cfg.grasp_advance, 0.01);
   ASSERT_TRUE(loop.run_until_state(State::kDone, 30.0)) << loop.ctrl.machine().summary();
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
   const auto states = published_states(loop);
