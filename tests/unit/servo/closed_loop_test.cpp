@@ -910,45 +910,34 @@ TEST(ClosedLoop, RaysThatDoNotMeetGiveNoPosition) {
   EXPECT_LT((estimate_of(*loop.outcome(1)) - spec.fruits[0].position).norm(), 0.01);
 }
 
-TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachable) {
-  // Beyond the box and the reach shell, but seen nearer by the fixed camera:
-  // tried along its line of sight, measured by the camera-in-hand, given up
-  // before the arm heads for it; the reachable fruit is still picked.
-  WorldSpec spec = experiment_one();
-  spec.fixed_error.setZero();
-  spec.fruits.insert(spec.fruits.begin(), FruitTruth{7, {0.2, 1.6, -0.3}, 0.075});
-  spec.fixed_depth_scale = 0.8;
-  Loop loop(spec);
-  loop.start();
-  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
-  expect_published(loop, 7, fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace");
-  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
-  EXPECT_FALSE(loop.world.fruit_picked(7));
-  expect_within_limits(loop);
-}
-
-// The camera-in-hand's measurement is an estimate (a neighbour's fragment
-// followed in a cluttered view reads far): with attempts left the fruit is
-// tried again after the others, not given up for good at once.
-TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsTriedAgainWhileAttemptsRemain) {
-  WorldSpec spec = experiment_one();
-  spec.fixed_error.setZero();
-  spec.fruits.insert(spec.fruits.begin(), FruitTruth{7, {0.2, 1.6, -0.3}, 0.075});
-  spec.fixed_depth_scale = 0.8;
-  ServoConfig cfg = test_config();
-  cfg.max_attempts_per_fruit = 2;
-  Loop loop(spec, cfg);
-  loop.start();
-  ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
-  const auto published = published_outcomes(loop, 7);
-  ASSERT_EQ(published.size(), 2u);
-  for (const auto& o : published) {
-    EXPECT_EQ(o.outcome, +fruit_outcome_t::UNREACHABLE);
-    EXPECT_EQ(o.detail, "the camera-in-hand measures it outside the workspace");
+// Beyond the box and the reach shell, but seen nearer by the fixed camera:
+// tried along its line of sight, measured by the camera-in-hand, given up
+// before the arm heads for it; the reachable fruit is still picked. The
+// measurement is an estimate (a neighbour's fragment followed in a cluttered
+// view reads far too), so it uses one attempt, not all: with two, the fruit
+// is measured once more after the others.
+TEST(ClosedLoop, FruitTheHandCameraMeasuresOutOfReachIsUnreachableOnceForEachAttempt) {
+  for (const int attempts : {1, 2}) {
+    WorldSpec spec = experiment_one();
+    spec.fixed_error.setZero();
+    spec.fruits.insert(spec.fruits.begin(), FruitTruth{7, {0.2, 1.6, -0.3}, 0.075});
+    spec.fixed_depth_scale = 0.8;
+    ServoConfig cfg = test_config();
+    cfg.max_attempts_per_fruit = attempts;
+    Loop loop(spec, cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
+    const auto published = published_outcomes(loop, 7);
+    ASSERT_EQ(published.size(), static_cast<std::size_t>(attempts));
+    for (const auto& o : published) {
+      EXPECT_EQ(o.outcome, +fruit_outcome_t::UNREACHABLE);
+      EXPECT_EQ(o.detail, "the camera-in-hand measures it outside the workspace");
+      EXPECT_GE(o.cycle_time_s, 0.0);
+    }
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+    EXPECT_FALSE(loop.world.fruit_picked(7));
+    expect_motion_stopped(loop);
   }
-  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
-  EXPECT_FALSE(loop.world.fruit_picked(7));
-  expect_motion_stopped(loop);
 }
 
 TEST(ClosedLoop, FruitOutOfReachAlongItsWholeLineOfSightIsSkipped) {
