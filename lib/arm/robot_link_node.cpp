@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "geometry/pose_msg.hpp"
 #include "runtime/channels.hpp"
@@ -25,7 +26,7 @@ Eigen::Vector3d vec3(const config::Node& n, const std::string& key, const std::v
 
 RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   RobotLinkConfig c;
-  c.bus = root.get<std::string>("bus", c.bus);
+  c.bus = canopen::bus_from_config(root, "bus", c.bus);
   c.model = kinematics::ArmModel::load(root.file_path("arm_model", "k1207i.yaml").string());
   c.can = canopen::MasterConfig::from_config(root.child("can"));
   if (static_cast<int>(c.can.drives.size()) != c.model.dof())
@@ -37,6 +38,19 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.limits.angular_acceleration = lim.get<double>("max_angular_acceleration", 2.0, {0.01, 20.0});
   c.limits.default_validity = lim.get<int>("default_validity_ms", 100, {10, 1000}) * 1000;
   c.limits.max_validity = lim.get<int>("max_validity_ms", 1000, {10, 10000}) * 1000;
+  if (c.limits.default_validity > c.limits.max_validity)
+    lim.fail("default_validity_ms", "a validity no longer than max_validity_ms (" +
+                                        std::to_string(c.limits.max_validity / 1000) + " ms)");
+  c.command_limits.min_goal_linear_speed =
+      lim.get<double>("min_goal_linear_speed", c.command_limits.min_goal_linear_speed, {1e-4, 0.1});
+  c.command_limits.min_goal_angular_speed =
+      lim.get<double>("min_goal_angular_speed", c.command_limits.min_goal_angular_speed, {1e-4, 0.5});
+  c.command_limits.non_physical_factor =
+      lim.get<double>("non_physical_factor", c.command_limits.non_physical_factor, {1.0, 100.0});
+  if (c.command_limits.min_goal_linear_speed > c.limits.linear_speed)
+    lim.fail("min_goal_linear_speed", "a speed no greater than max_linear_speed");
+  if (c.command_limits.min_goal_angular_speed > c.limits.angular_speed)
+    lim.fail("min_goal_angular_speed", "a speed no greater than max_angular_speed");
   const auto ws = root.child("workspace");
   c.workspace.min = vec3(ws, "min", {-2, -2, -2});
   c.workspace.max = vec3(ws, "max", {2, 2, 2});
@@ -70,34 +84,55 @@ CartesianStep pose_goal_step(const RobotLinkConfig& config, const CartesianTraje
   return cartesian_step(config, q, tool, v, previous, dt);
 }
 
-PoseGoalDryRun dry_run_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
-                                 Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options) {
-  const double dt = rt::to_seconds(config.can.sync_period);
-  const int end_of_path = static_cast<int>(std::ceil(trajectory.duration() / dt));
-  const int last = end_of_path + static_cast<int>(std::ceil(options.settle / dt));
-  PoseGoalDryRun out;
-  const auto measure = [&] {
-    const kinematics::Twist e = kinematics::pose_error(trajectory.goal(), kinematics::tool_pose(config.model, q));
-    out.position_error = e.head<3>().norm();
-    out.orientation_error = e.tail<3>().norm();
-    out.reached =
-        out.position_error <= options.position_tolerance && out.orientation_error <= options.orientation_tolerance;
-  };
-  for (int k = 0; k < last; ++k) {
-    if (k >= end_of_path) {
+PoseGoalDryRunner::PoseGoalDryRunner(const RobotLinkConfig& config, CartesianTrajectory trajectory,
+                                     Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options)
+    : config_(&config),
+      trajectory_(std::move(trajectory)),
+      q_(std::move(q)),
+      previous_(std::move(previous)),
+      options_(options),
+      dt_(rt::to_seconds(config.can.sync_period)) {
+  // Step counts in doubles first: a goal that would take forever must not
+  // overflow them (callers refuse goals longer than options.max_duration).
+  const double path = std::min(std::ceil(trajectory_.duration() / dt_), 1e12);
+  end_of_path_ = std::isfinite(path) ? static_cast<int64_t>(path) : int64_t{1'000'000'000'000};
+  last_ = end_of_path_ + static_cast<int64_t>(std::ceil(options_.settle / dt_));
+}
+
+void PoseGoalDryRunner::measure() {
+  const kinematics::Twist e = kinematics::pose_error(trajectory_.goal(), kinematics::tool_pose(config_->model, q_));
+  out_.position_error = e.head<3>().norm();
+  out_.orientation_error = e.tail<3>().norm();
+  out_.reached =
+      out_.position_error <= options_.position_tolerance && out_.orientation_error <= options_.orientation_tolerance;
+}
+
+bool PoseGoalDryRunner::run(int64_t max_steps) {
+  if (done_) return true;
+  for (int64_t budget = max_steps; k_ < last_; ++k_) {
+    if (budget-- <= 0) return false;
+    if (k_ >= end_of_path_) {
       measure();
-      if (out.reached) break;
+      if (out_.reached) break;
     }
-    const CartesianStep step = pose_goal_step(config, trajectory, k * dt, q, previous, dt);
-    if (step.position_clipped) ++out.position_clipped_steps;
-    q += step.qdot * dt;
-    previous = step.qdot;
-    ++out.steps;
+    const CartesianStep step = pose_goal_step(*config_, trajectory_, static_cast<double>(k_) * dt_, q_, previous_, dt_);
+    if (step.position_clipped) ++out_.position_clipped_steps;
+    q_ += step.qdot * dt_;
+    previous_ = step.qdot;
+    ++out_.steps;
   }
   measure();
-  out.time = out.steps * dt;
-  out.q = std::move(q);
-  return out;
+  out_.time = out_.steps * dt_;
+  out_.q = q_;
+  done_ = true;
+  return true;
+}
+
+PoseGoalDryRun dry_run_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
+                                 Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options) {
+  PoseGoalDryRunner runner(config, trajectory, std::move(q), std::move(previous), options);
+  runner.run(std::numeric_limits<int64_t>::max());
+  return runner.result();
 }
 
 std::string dry_run_shortfall(const PoseGoalDryRun& d) {
@@ -229,28 +264,51 @@ void RobotLinkNode::begin_shutdown() {
   spdlog::info("stopping the arm and disabling the drives");
 }
 
-void RobotLinkNode::limit_event(const std::string& why, bool always_log) {
+void RobotLinkNode::limit_event(const std::string& why) {
   ++limit_events_;
   limit_text_ = why;
   count("limit_events");
-  const Micros t = now();
-  if (!always_log && logged_limit_at_ != 0 && t - logged_limit_at_ < rt::kSecond) {
-    ++unlogged_limit_events_;
-    return;
-  }
-  if (unlogged_limit_events_ > 0)
-    spdlog::warn("command limited: {} (and {} limit events not logged in the {:.1f} s before)", why,
-                 unlogged_limit_events_, rt::to_seconds(t - logged_limit_at_));
+  int64_t unlogged = 0;
+  Micros since = 0;
+  if (!limit_log_.admit(now(), unlogged, since)) return;
+  if (unlogged > 0)
+    spdlog::warn("command limited: {} (and {} limit events not logged in the {:.1f} s before)", why, unlogged,
+                 rt::to_seconds(since));
   else
     spdlog::warn("command limited: {}", why);
-  logged_limit_at_ = t;
-  unlogged_limit_events_ = 0;
 }
 
 void RobotLinkNode::refuse(const harvest::robot_command_t& cmd, const std::string& why) {
   refused_ = true;
-  limit_event("command seq " + std::to_string(cmd.header.seq) + " refused: " + why, true);
+  limit_event("command seq " + std::to_string(cmd.header.seq) + " refused: " + why);
   count("commands_refused");
+}
+
+std::string RobotLinkNode::implausible(const harvest::robot_command_t& cmd) const {
+  const CommandLimits& c = config_.command_limits;
+  if (cmd.type == harvest::robot_command_t::TYPE_TWIST) {
+    const Eigen::Vector3d v(cmd.twist.linear[0], cmd.twist.linear[1], cmd.twist.linear[2]);
+    const Eigen::Vector3d w(cmd.twist.angular[0], cmd.twist.angular[1], cmd.twist.angular[2]);
+    if (!v.allFinite() || !w.allFinite()) return "twist is not finite";
+    if (v.norm() > c.non_physical_factor * config_.limits.linear_speed ||
+        w.norm() > c.non_physical_factor * config_.limits.angular_speed)
+      return fmt::format(
+          "twist of {:.4g} m/s, {:.4g} rad/s is not physical: more than {:g}x the limits ({:g} m/s, {:g} rad/s; "
+          "limits.non_physical_factor)",
+          v.norm(), w.norm(), c.non_physical_factor, config_.limits.linear_speed, config_.limits.angular_speed);
+  }
+  if (cmd.type == harvest::robot_command_t::TYPE_POSE_GOAL) {
+    const double vmax = cmd.max_linear_speed, wmax = cmd.max_angular_speed;
+    if (!std::isfinite(vmax) || vmax < 0.0 || !std::isfinite(wmax) || wmax < 0.0)
+      return "max_linear_speed and max_angular_speed must be 0 (the link's limits) or a positive speed";
+    if (vmax > 0.0 && vmax < c.min_goal_linear_speed)
+      return fmt::format("max_linear_speed {:g} m/s is below the minimum {:g} m/s (limits.min_goal_linear_speed)",
+                         vmax, c.min_goal_linear_speed);
+    if (wmax > 0.0 && wmax < c.min_goal_angular_speed)
+      return fmt::format("max_angular_speed {:g} rad/s is below the minimum {:g} rad/s (limits.min_goal_angular_speed)",
+                         wmax, c.min_goal_angular_speed);
+  }
+  return {};
 }
 
 void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
@@ -268,10 +326,10 @@ void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
       supervisor_.cancel_command();
       break;
     case harvest::robot_command_t::TYPE_TWIST: {
+      if (const std::string why = implausible(cmd); !why.empty()) return refuse(cmd, why);
       kinematics::Twist v;
       v << cmd.twist.linear[0], cmd.twist.linear[1], cmd.twist.linear[2], cmd.twist.angular[0], cmd.twist.angular[1],
           cmd.twist.angular[2];
-      if (!v.allFinite()) return refuse(cmd, "twist is not finite");
       active_ = Active::kTwist;
       twist_ = v;
       break;
@@ -283,6 +341,7 @@ void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
       if (!pos.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3)
         return refuse(cmd, "pose goal is not a position and a unit quaternion");
       if (!config_.workspace.contains(pos)) return refuse(cmd, "pose goal outside the workspace");
+      if (const std::string why = implausible(cmd); !why.empty()) return refuse(cmd, why);
       if ((active_ == Active::kPoseGoal || active_ == Active::kPlanning || active_ == Active::kPoseGoalInJoints) &&
           cmd.goal_id == goal_id_)
         break;  // same goal, refreshed
@@ -329,6 +388,9 @@ void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const 
   if (cmd.max_linear_speed > 0) lim.linear_speed = std::min(lim.linear_speed, cmd.max_linear_speed);
   if (cmd.max_angular_speed > 0) lim.angular_speed = std::min(lim.angular_speed, cmd.max_angular_speed);
   CartesianTrajectory path(kinematics::tool_pose(config_.model, q_), goal, lim);
+  if (!(path.duration() <= config_.dry_run.max_duration))
+    return refuse(cmd, fmt::format("the pose goal would take {:.0f} s, more than the {:.0f} s a goal may take",
+                                   path.duration(), config_.dry_run.max_duration));
   goal_id_ = cmd.goal_id;
   traj_start_ = now();
   planning_.reset();
@@ -337,38 +399,58 @@ void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const 
     active_ = Active::kPoseGoal;
     return;
   }
-  const PoseGoalDryRun dry = dry_run_pose_goal(config_, path, q_, last_cmd_, config_.dry_run);
+  // The dry run runs a bounded slice here (a typical goal's whole dry run) and
+  // goes on after each SYNC (continue_planning) while the arm holds.
+  planning_.emplace(Planning{cmd, goal, PoseGoalDryRunner(config_, path, q_, last_cmd_, config_.dry_run), {},
+                             std::nullopt, std::nullopt});
+  active_ = Active::kPlanning;
+  if (planning_->dry_run.run(config_.dry_run.steps_per_period)) decide_after_dry_run();
+}
+
+void RobotLinkNode::decide_after_dry_run() {
+  Planning& p = *planning_;
+  const PoseGoalDryRun& dry = p.dry_run.result();
+  const int64_t goal_id = p.cmd.goal_id;
   if (dry.reached) {
-    pose_traj_.emplace(path);
+    pose_traj_.emplace(p.dry_run.trajectory());
     active_ = Active::kPoseGoal;
+    traj_start_ = now();
     count("pose_goals_cartesian");
-    spdlog::info("pose goal {}: Cartesian (the straight path's dry run ends {:.1f} mm, {:.3f} rad from it)",
-                 cmd.goal_id, 1000.0 * dry.position_error, dry.orientation_error);
+    spdlog::info("pose goal {}: Cartesian (the straight path's dry run ends {:.1f} mm, {:.3f} rad from it)", goal_id,
+                 1000.0 * dry.position_error, dry.orientation_error);
+    planning_.reset();
     return;
   }
+  p.shortfall = dry_run_shortfall(dry);
   std::string home_why;
-  if ((joint_traj_ = home_path(config_, q_, goal, &home_why))) {
+  if ((joint_traj_ = home_path(config_, q_, p.goal, &home_why))) {
     active_ = Active::kPoseGoalInJoints;
+    traj_start_ = now();
     count("pose_goals_joint_space");
-    spdlog::info("pose goal {}: {}; {}", cmd.goal_id, dry_run_shortfall(dry), home_why);
+    spdlog::info("pose goal {}: {}; {}", goal_id, p.shortfall, home_why);
+    planning_.reset();
     return;
   }
   // The IK runs a slice per control period (continue_planning) while the arm holds.
-  planning_.emplace(
-      Planning{cmd, goal, dry_run_shortfall(dry), kinematics::PoseSolver(config_.model, goal, q_), std::nullopt});
-  if (config_.dry_run.near_enough(dry.position_error, dry.orientation_error)) planning_->best_effort.emplace(path);
-  active_ = Active::kPlanning;
+  p.solver.emplace(config_.model, p.goal, q_);
+  if (config_.dry_run.near_enough(dry.position_error, dry.orientation_error))
+    p.best_effort.emplace(p.dry_run.trajectory());
 }
 
 void RobotLinkNode::continue_planning() {
   // It goes on through a stale command (a loaded machine may delay the
   // resends): the motion it leads to moves only while the command is fresh.
   Planning& p = *planning_;
-  if (!p.solver.run(config_.ik_iterations_per_period)) return;
+  if (!p.solver) {
+    if (p.dry_run.run(config_.dry_run.steps_per_period)) decide_after_dry_run();
+    return;
+  }
+  if (!p.solver->run(config_.ik_iterations_per_period)) return;
   const Planning done = std::move(p);
   planning_.reset();
-  std::string why = fmt::format("no joint solution was found ({} IK iterations)", done.solver.iterations());
-  if (done.solver.solution()) joint_traj_ = joint_space_path(config_, q_, *done.solver.solution(), &why);
+  std::string why = fmt::format("no joint solution was found ({} IK iterations)", done.solver->iterations());
+  joint_traj_.reset();
+  if (done.solver->solution()) joint_traj_ = joint_space_path(config_, q_, *done.solver->solution(), &why);
   if (!joint_traj_ && done.best_effort) {
     pose_traj_.emplace(*done.best_effort);
     active_ = Active::kPoseGoal;
@@ -386,7 +468,7 @@ void RobotLinkNode::continue_planning() {
   traj_start_ = now();
   count("pose_goals_joint_space");
   spdlog::info("pose goal {}: {}; {} ({} IK iterations)", done.cmd.goal_id, done.shortfall, why,
-               done.solver.iterations());
+               done.solver->iterations());
 }
 
 void RobotLinkNode::pose_goal_unreachable(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal,

@@ -18,6 +18,7 @@
 #include "canopen/master.hpp"
 #include "config/config.hpp"
 #include "kinematics/diff_ik.hpp"
+#include "runtime/log_limiter.hpp"
 #include "runtime/node.hpp"
 
 namespace harvest::arm {
@@ -38,6 +39,24 @@ struct DryRunOptions {
   bool near_enough(double position_error, double orientation_error) const {
     return position_error <= near_enough_position && orientation_error <= near_enough_orientation;
   }
+  // Bounded work per control period: the link runs at most this many dry-run
+  // steps (about 10 us each) in the handler of a new goal and then after each
+  // SYNC, while the arm holds; a typical goal (under 2 s of path) is decided
+  // at once, a long slow one over a few periods.
+  int steps_per_period = 200;
+  // Pose goals whose trajectory would take longer are refused (the dry run
+  // would cover max_duration + settle of control steps).
+  double max_duration = 300.0;  // [s]
+};
+
+// Limits on what a command may ask, beyond MotionLimits: below the minimum
+// goal speeds a goal would take forever (and its dry run with it); a twist
+// beyond `non_physical_factor` times the speed limits is garbage, refused
+// rather than clipped and obeyed at full speed.
+struct CommandLimits {
+  double min_goal_linear_speed = 0.01;   // [m/s] a pose goal's max_linear_speed, if not 0
+  double min_goal_angular_speed = 0.02;  // [rad/s] a pose goal's max_angular_speed, if not 0
+  double non_physical_factor = 3.0;      // twists faster than this x the limits are refused
 };
 
 struct RobotLinkConfig {
@@ -45,6 +64,7 @@ struct RobotLinkConfig {
   kinematics::ArmModel model;
   canopen::MasterConfig can;
   MotionLimits limits;
+  CommandLimits command_limits;
   Workspace workspace;
   double position_gain = 5.0;
   double orientation_gain = 5.0;
@@ -115,6 +135,30 @@ struct PoseGoalDryRun {
 PoseGoalDryRun dry_run_pose_goal(const RobotLinkConfig& config, const CartesianTrajectory& trajectory,
                                  Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options = {});
 
+// The same dry run in slices, so no control period does more than a bounded
+// share of it: run(n) takes at most n more steps and returns true once the
+// result is final. `config` must outlive the runner.
+class PoseGoalDryRunner {
+ public:
+  PoseGoalDryRunner(const RobotLinkConfig& config, CartesianTrajectory trajectory, Eigen::VectorXd q,
+                    Eigen::VectorXd previous, const DryRunOptions& options);
+  bool run(int64_t max_steps);
+  bool done() const { return done_; }
+  const PoseGoalDryRun& result() const { return out_; }
+  const CartesianTrajectory& trajectory() const { return trajectory_; }
+
+ private:
+  void measure();
+  const RobotLinkConfig* config_;
+  CartesianTrajectory trajectory_;
+  Eigen::VectorXd q_, previous_;
+  DryRunOptions options_;
+  double dt_;
+  int64_t end_of_path_ = 0, last_ = 0, k_ = 0;
+  bool done_ = false;
+  PoseGoalDryRun out_;
+};
+
 // "the straight path's dry run stops 12.0 mm, 0.430 rad short (at joint limits)": why a dry run is not enough.
 std::string dry_run_shortfall(const PoseGoalDryRun& dry_run);
 
@@ -164,11 +208,13 @@ class RobotLinkNode final : public rt::Node {
   // running (a slice per period) while the arm holds. kPoseGoalInJoints: a
   // pose goal executed on a JointTrajectory.
   enum class Active { kNone, kTwist, kPoseGoal, kPlanning, kPoseGoalInJoints, kJointGoal };
+  // First the Cartesian dry run (in slices), then, if it falls short, the IK.
   struct Planning {
     harvest::robot_command_t cmd;
     Eigen::Isometry3d goal;
-    std::string shortfall;  // dry_run_shortfall
-    kinematics::PoseSolver solver;
+    PoseGoalDryRunner dry_run;
+    std::string shortfall;                           // dry_run_shortfall, once the dry run fell short
+    std::optional<kinematics::PoseSolver> solver;    // the IK, once the dry run fell short
     std::optional<CartesianTrajectory> best_effort;  // the straight path, if its dry run ended near enough
   };
 
@@ -178,10 +224,13 @@ class RobotLinkNode final : public rt::Node {
   void on_operator(const harvest::operator_command_t& msg);
   void refuse(const harvest::robot_command_t& cmd, const std::string& why);
   void accept_pose_goal(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal);
+  // Why a command asks for something not physical or not plannable (empty if fine).
+  std::string implausible(const harvest::robot_command_t& cmd) const;
   void continue_planning();
+  void decide_after_dry_run();
   void pose_goal_unreachable(const harvest::robot_command_t& cmd, const Eigen::Isometry3d& goal,
                              const std::string& why);
-  void limit_event(const std::string& why, bool always_log = false);
+  void limit_event(const std::string& why);
   // This period's joint velocity command (all limits applied) for the active command.
   Eigen::VectorXd command_velocity(double dt);
   void supervise();
@@ -213,11 +262,10 @@ class RobotLinkNode final : public rt::Node {
   bool limited_now_ = false;
   bool refused_ = false;
   std::string limit_text_;
-  // Limits that come and go every control period (or two that alternate)
-  // are logged at most once a second, with how many events the line stands
-  // for, not 50 times a second; refusals are always logged.
-  Micros logged_limit_at_ = 0;
-  int unlogged_limit_events_ = 0;
+  // Limits that come and go every control period (or two that alternate),
+  // and refusals of a stray publisher's commands, are logged at most once a
+  // second, with how many events the line stands for, not 50 times a second.
+  rt::LogLimiter limit_log_;
   Micros enable_started_ = 0;
   bool enable_timed_out_ = false;
   Micros last_sync_ = 0;

@@ -22,33 +22,9 @@ const char* to_string(BusState s) {
 }
 
 std::unique_ptr<CanBus> open_bus(const std::string& spec) {
-  const auto colon = spec.find(':');
-  const std::string kind = spec.substr(0, colon);
-  const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
-  if (kind == "socketcan") {
-    if (rest.empty()) throw CanError("CAN bus '" + spec + "': expected socketcan:<interface>, e.g. socketcan:can0");
-    return std::make_unique<SocketCanBus>(rest);
-  }
-  if (kind == "udp_multicast") {
-    UdpMulticastOptions o;
-    if (!rest.empty()) {
-      const auto c2 = rest.rfind(':');
-      o.group = rest.substr(0, c2);
-      if (c2 != std::string::npos) {
-        const std::string port = rest.substr(c2 + 1);
-        std::size_t used = 0;
-        try {
-          o.port = std::stoi(port, &used);
-        } catch (const std::exception&) {
-          used = 0;
-        }
-        if (used == 0 || used != port.size()) throw CanError("CAN bus '" + spec + "': bad port '" + port + "'");
-      }
-    }
-    return std::make_unique<UdpMulticastBus>(o);
-  }
-  throw CanError("CAN bus '" + spec + "': unknown transport '" + kind +
-                 "' (expected socketcan:<interface> or udp_multicast[:<group>[:<port>]])");
+  const BusSpec s = parse_bus_spec(spec);
+  if (s.kind == BusSpec::Kind::kSocketCan) return std::make_unique<SocketCanBus>(s.interface);
+  return std::make_unique<UdpMulticastBus>(s.udp);
 }
 
 std::string to_string(const CanFrame& frame) {

@@ -65,9 +65,9 @@ class CanBus {
   virtual std::string describe() const = 0;
 };
 
-// Opens a bus from a configuration string:
-//   socketcan:<interface>              e.g. socketcan:can0
-//   udp_multicast[:<group>[:<port>]]   e.g. udp_multicast:239.74.163.2:43113 (the python-can defaults)
+// Opens a bus from a configuration string (parse_bus_spec, can/bus_spec.hpp):
+//   socketcan:<interface>                            e.g. socketcan:can0
+//   udp_multicast[:<group>[:<port>]][?ttl=<0..255>]  e.g. udp_multicast:239.74.163.2:43113?ttl=0 (TTL 0 by default)
 // Throws CanError with a message saying what is wrong.
 std::unique_ptr<CanBus> open_bus(const std::string& spec);
 

@@ -25,6 +25,8 @@ UdpMulticastBus::UdpMulticastBus(UdpMulticastOptions options) : options_(std::mo
     throw CanError("udp_multicast: '" + options_.group + "' is not an IPv4 multicast address");
   if (options_.port <= 0 || options_.port > 65535)
     throw CanError("udp_multicast: port " + std::to_string(options_.port) + " out of range");
+  if (options_.hop_limit < 0 || options_.hop_limit > 255)
+    throw CanError("udp_multicast: ttl " + std::to_string(options_.hop_limit) + " out of range 0..255");
 
   rx_fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   tx_fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
@@ -72,7 +74,16 @@ UdpMulticastBus::~UdpMulticastBus() {
 }
 
 std::string UdpMulticastBus::describe() const {
-  return "udp_multicast:" + options_.group + ":" + std::to_string(options_.port);
+  BusSpec spec;
+  spec.udp = options_;
+  return spec.describe();
+}
+
+int UdpMulticastBus::multicast_ttl() const {
+  unsigned char ttl = 0;
+  socklen_t len = sizeof(ttl);
+  if (::getsockopt(tx_fd_, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, &len) < 0) fail(options_, "reading IP_MULTICAST_TTL");
+  return ttl;
 }
 
 void UdpMulticastBus::send(const CanFrame& frame) {

@@ -11,15 +11,10 @@
 
 #include <string>
 
+#include "can/bus_spec.hpp"
 #include "can/can_bus.hpp"
 
 namespace harvest::can {
-
-struct UdpMulticastOptions {
-  std::string group = "239.74.163.2";  // python-can DEFAULT_GROUP_IPv4
-  int port = 43113;
-  int hop_limit = 1;  // TTL, as python-can
-};
 
 class UdpMulticastBus final : public CanBus {
  public:
@@ -37,6 +32,8 @@ class UdpMulticastBus final : public CanBus {
   // Datagrams that were not valid frames (counted, logged by the caller).
   int64_t malformed() const { return malformed_; }
   const std::string& last_error() const { return last_error_; }
+  // IP_MULTICAST_TTL of the sending socket, read back from the kernel.
+  int multicast_ttl() const;
 
  private:
   UdpMulticastOptions options_;

@@ -5,9 +5,20 @@
 #include <limits>
 #include <optional>
 
+#include "can/bus_spec.hpp"
 #include "canopen/pdo.hpp"
 
 namespace harvest::canopen {
+
+std::string bus_from_config(const config::Node& node, const std::string& key, const std::string& fallback) {
+  const auto bus = node.get<std::string>(key, fallback);
+  try {
+    can::parse_bus_spec(bus);
+  } catch (const can::CanError& e) {
+    node.fail(key, std::string("a CAN bus string: ") + e.what());
+  }
+  return bus;
+}
 
 MasterConfig MasterConfig::from_config(const config::Node& node) {
   MasterConfig c;

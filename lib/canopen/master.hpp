@@ -20,6 +20,11 @@
 
 namespace harvest::canopen {
 
+// The CAN bus string under `key` (default `fallback`), checked by
+// can::parse_bus_spec: a bad one is a configuration error, so --check-config
+// refuses it before anything is opened.
+std::string bus_from_config(const config::Node& node, const std::string& key, const std::string& fallback);
+
 struct DriveConfig {
   uint8_t node_id = 1;
   double counts_per_radian = 1.0;  // encoder counts per joint radian (gear included; sign = direction)

@@ -79,8 +79,10 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.tick_period_s = n.get("tick_period_s", c.tick_period_s, {0.001, 0.5});
   c.status_period_s = n.get("status_period_s", c.status_period_s, {0.05, 60.0});
   c.validity_s = n.get("validity_s", c.validity_s, {0.01, 2.0});
-  c.max_linear_speed = n.get("max_linear_speed", c.max_linear_speed, {1e-3, 0.381});
-  c.max_angular_speed = n.get("max_angular_speed", c.max_angular_speed, {1e-3, 3.2});
+  // Not below the robot link's minimum goal speeds (limits.min_goal_*_speed in
+  // config/arm/robot_link.yaml): it refuses pose goals capped slower than that.
+  c.max_linear_speed = n.get("max_linear_speed", c.max_linear_speed, {0.01, 0.381});
+  c.max_angular_speed = n.get("max_angular_speed", c.max_angular_speed, {0.02, 3.2});
   c.max_linear_accel = n.get("max_linear_accel", c.max_linear_accel, pos);
   c.max_angular_accel = n.get("max_angular_accel", c.max_angular_accel, pos);
   c.ir_switch_distance = n.get("ir_switch_distance", c.ir_switch_distance, pos);

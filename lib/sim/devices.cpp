@@ -7,6 +7,7 @@
 #include "kinematics/chain.hpp"
 #include "kinematics/diff_ik.hpp"
 #include "sim/scene.hpp"
+#include "canopen/master.hpp"
 #include "simdrive/sim_drives_node.hpp"
 
 namespace harvest::sim {
@@ -28,7 +29,7 @@ DevicesConfig DevicesConfig::from_config(const config::Node& n) {
   } catch (const config::Error& e) {
     n.fail("drives_config", std::string("a valid simulated drives file: ") + e.what());
   }
-  c.bus = n.get<std::string>("bus", c.bus);
+  c.bus = canopen::bus_from_config(n, "bus", c.bus);
   const auto b = n.child("board");
   c.board_host = b.get<std::string>("host", c.board_host);
   c.board_port = b.get<int>("port", c.board_port, {1, 65535});

@@ -30,7 +30,7 @@ std::vector<SimDriveConfig> sim_drive_configs(const kinematics::ArmModel& model,
 
 SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
   SimDrivesConfig c;
-  c.bus = root.get<std::string>("bus", c.bus);
+  c.bus = canopen::bus_from_config(root, "bus", c.bus);
   const auto model = kinematics::ArmModel::load(root.file_path("arm_model", "k1207i.yaml").string());
   auto drives_doc = config::Document::load_file(root.file_path("drives_file", "drives_k1207i.yaml"));
   const double margin = root.get<double>("acceleration_margin", 1.5, {1.0, 100.0});

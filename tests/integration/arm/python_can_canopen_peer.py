@@ -13,7 +13,7 @@ import time
 import can
 
 group, port, num, stop_node = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-bus = can.Bus(interface="udp_multicast", channel=group, port=port)
+bus = can.Bus(interface="udp_multicast", channel=group, port=port, hop_limit=0)  # this host only
 syncs, rpdo, tpdo1, tpdo2, heartbeat = [], {}, {}, {}, {}
 deadline = time.monotonic() + 1.0
 try:

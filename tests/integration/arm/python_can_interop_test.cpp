@@ -22,7 +22,7 @@ std::optional<CanFrame> wait_for(CanBus& bus, uint32_t id, int ms) {
 
 TEST(PythonCanInterop, FramesCrossBothWays) {
   const int port = 40000 + static_cast<int>(::getpid()) % 20000;
-  auto bus = open_bus("udp_multicast:239.74.163.2:" + std::to_string(port));
+  auto bus = open_bus("udp_multicast:239.74.163.2:" + std::to_string(port) + "?ttl=0");
   testing::TempDir tmp;
   testing::ChildProcess peer(
       {"/usr/bin/python3", testing::source_path("tests/integration/arm/python_can_peer.py"), std::to_string(port)},

@@ -9,7 +9,7 @@ import time
 import can
 
 port = int(sys.argv[1])
-bus = can.Bus(interface="udp_multicast", channel="239.74.163.2", port=port)
+bus = can.Bus(interface="udp_multicast", channel="239.74.163.2", port=port, hop_limit=0)  # this host only
 deadline = time.monotonic() + 15.0
 answered = set()
 try:

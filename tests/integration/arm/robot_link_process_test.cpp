@@ -40,7 +40,7 @@ std::string unique_can_bus() {
   const int pid = static_cast<int>(::getpid());
   const int n = counter++;
   return "udp_multicast:239.74.163." + std::to_string(10 + (pid + n) % 200) + ":" +
-         std::to_string(61000 + (pid * 7 + n * 13) % 4000);
+         std::to_string(61000 + (pid * 7 + n * 13) % 4000) + "?ttl=0";
 }
 
 Eigen::Vector3d tool_position(const robot_state_t& s) {
@@ -324,7 +324,7 @@ TEST_F(ArmProcesses, UnreachablePoseGoalIsRefusedWhileTheLinkKeepsRunning) {
 // with the standard layouts, then stops drive 4 with its own NMT frame: the
 // robot link sees the drive's PDOs stop and stops the arm.
 TEST_F(ArmProcesses, PythonCanPeerReadsOurCanopenTrafficAndItsNmtStopIsHandled) {
-  const std::string spec = bus_.substr(bus_.find(':') + 1);  // group:port
+  const std::string spec = bus_.substr(bus_.find(':') + 1, bus_.find('?') - bus_.find(':') - 1);  // group:port
   const std::string group = spec.substr(0, spec.find(':')), port = spec.substr(spec.find(':') + 1);
   const std::size_t from = count();
   ht::ChildProcess peer(
@@ -349,6 +349,31 @@ TEST(RobotLinkProcess, MissingCanInterfaceIsAClearErrorNamingIt) {
   EXPECT_NE(rc, 0) << link.output();
   EXPECT_NE(rc, -1) << "still running\n" << link.output();
   EXPECT_NE(link.output().find("socketcan:nosuchcan3"), std::string::npos) << link.output();
+}
+
+// --check-config validates everything a start would, touching no bus: a
+// default validity above the maximum and an unknown bus transport are
+// configuration errors (exit 2) that name the key.
+TEST(RobotLinkProcess, CheckConfigRefusesBadValiditiesAndUnknownBusTransports) {
+  ht::TempDir tmp;
+  const auto check = [&](const std::string& process, const std::string& config, const std::string& assignment) {
+    ht::ChildProcess p({ht::bin(process), "--config", ht::source_path(config), "--set", assignment, "--check-config",
+                        "--lcm-url", ht::unique_lcm_url(), "--no-netcheck"},
+                       tmp / (process + ".log"));
+    const int rc = p.wait(10s);
+    return std::make_pair(rc, p.output());
+  };
+  auto [ok, ok_out] = check("harvest-robot-link", "config/arm/robot_link.yaml", "limits.max_validity_ms=100");
+  EXPECT_EQ(ok, 0) << ok_out;
+  auto [rc1, out1] = check("harvest-robot-link", "config/arm/robot_link.yaml", "limits.max_validity_ms=50");
+  EXPECT_EQ(rc1, 2) << out1;
+  EXPECT_NE(out1.find("default_validity_ms"), std::string::npos) << out1;
+  auto [rc2, out2] = check("harvest-robot-link", "config/arm/robot_link.yaml", "bus=vcan:can0");
+  EXPECT_EQ(rc2, 2) << out2;
+  EXPECT_NE(out2.find("unknown transport 'vcan'"), std::string::npos) << out2;
+  auto [rc3, out3] = check("harvest-sim-drives", "config/arm/sim_drives.yaml", "bus=udp_multicast:239.1.2.3:7?ttl=x");
+  EXPECT_EQ(rc3, 2) << out3;
+  EXPECT_NE(out3.find("bad ttl 'x'"), std::string::npos) << out3;
 }
 
 }  // namespace

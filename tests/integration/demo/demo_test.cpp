@@ -74,7 +74,7 @@ TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
   ht::TempDir dir;
   const int salt = static_cast<int>(::getpid() % 2000);
   const std::string bus =
-      "udp_multicast:239.74.163." + std::to_string(10 + salt % 200) + ":" + std::to_string(45000 + salt);
+      "udp_multicast:239.74.163." + std::to_string(10 + salt % 200) + ":" + std::to_string(45000 + salt) + "?ttl=0";
   const std::string port = std::to_string(21000 + salt);
   std::string out;
   ASSERT_EQ(

@@ -41,7 +41,8 @@ namespace {
 
 std::string unique_can_bus() {
   const int pid = static_cast<int>(::getpid());
-  return "udp_multicast:239.74.164." + std::to_string(10 + pid % 200) + ":" + std::to_string(57000 + (pid * 7) % 4000);
+  return "udp_multicast:239.74.164." + std::to_string(10 + pid % 200) + ":" + std::to_string(57000 + (pid * 7) % 4000) +
+         "?ttl=0";
 }
 
 // A TCP port nobody listens on right now (the kernel's pick).

@@ -565,7 +565,7 @@ TEST(RobotLinkNode, LinearSpeedIsLimitedAndReported) {
   c.limits.linear_speed = 0.2;  // well within what the joints can do here
   Rig rig(std::move(c));
   rig.start();
-  const auto cmd = every_20ms(rig, twist_command(0.0, 0.0, 1.0));  // 1 m/s asked, 0.2 allowed
+  const auto cmd = every_20ms(rig, twist_command(0.0, 0.0, 0.5));  // 0.5 m/s asked, 0.2 allowed
   rig.run(0.3, cmd);
   const robot_state_t a = rig.last();
   rig.run(0.5, cmd);
@@ -592,8 +592,8 @@ TEST(RobotLinkNode, LimitsThatComeAndGoAreLoggedAtMostOnceASecond) {
   c.limits.angular_speed = 0.3;
   Rig rig(std::move(c));
   rig.start();
-  const auto linear = twist_command(0.0, 0.0, 1.0);
-  const auto angular = twist_command(0.0, 0.0, 0.0, 0.0, 0.0, 2.0);
+  const auto linear = twist_command(0.0, 0.0, 0.5);                 // 2.5x the limit: clipped
+  const auto angular = twist_command(0.0, 0.0, 0.0, 0.0, 0.0, 0.8);  // 2.7x
   const int32_t before = rig.last().num_limit_events;
   rig.run(3.0, [&rig, &linear, &angular, n = 0]() mutable {
     if (n % 20 == 0) rig.inject(ch::kRobotCommand, (n / 20) % 2 ? angular : linear);
@@ -738,6 +738,154 @@ TEST(RobotLinkNode, CommandsOutsideLimitsAreRefusedAndReported) {
   EXPECT_NE(rig.last().fault_text.find("6 joints"), std::string::npos) << rig.last().fault_text;
   EXPECT_LT((position(rig.last().tool_pose) - start).norm(), 1e-6) << "nothing moved";
   EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_IDLE);
+}
+
+// ---- Bounded work and garbage commands (issue 16).
+
+harvest::robot_command_t pose_goal_command(const robot_state_t& from, const Eigen::Vector3d& offset, int64_t goal_id,
+                                           double max_linear_speed) {
+  harvest::robot_command_t cmd{};
+  cmd.type = harvest::robot_command_t::TYPE_POSE_GOAL;
+  cmd.validity_us = 200'000;
+  cmd.goal_id = goal_id;
+  const Eigen::Vector3d p = position(from.tool_pose) + offset;
+  for (int i = 0; i < 3; ++i) cmd.pose_goal.position[i] = p[i];
+  for (int i = 0; i < 4; ++i) cmd.pose_goal.orientation[i] = from.tool_pose.orientation[i];
+  cmd.max_linear_speed = max_linear_speed;
+  return cmd;
+}
+
+int64_t counter(RobotLinkNode& node, const std::string& name) {
+  const auto& c = node.stats().counters;
+  const auto it = c.find(name);
+  return it == c.end() ? 0 : it->second;
+}
+
+// A 1e9 m/s twist is garbage, not a request for full speed: refused (the arm
+// holds), where 2.5x the limit is still clipped and obeyed.
+TEST(RobotLinkNode, NonPhysicalTwistIsRefusedNotClippedAndObeyed) {
+  Rig rig(default_config());
+  rig.start();
+  const Eigen::Vector3d start = position(rig.last().tool_pose);
+  for (const auto& garbage : {twist_command(1e9, 0.0, 0.0), twist_command(0.0, 0.0, 1.2),
+                              twist_command(0.0, 0.0, 0.0, 0.0, 5.0, 0.0)}) {
+    const int64_t refused = counter(rig.node(), "commands_refused");
+    rig.run(0.3, every_20ms(rig, garbage));
+    EXPECT_GE(counter(rig.node(), "commands_refused"), refused + 10);
+    EXPECT_TRUE(rig.last().fault_flags & kFlagRefused);
+    EXPECT_NE(rig.last().fault_text.find("is not physical"), std::string::npos) << rig.last().fault_text;
+    EXPECT_LT((position(rig.last().tool_pose) - start).norm(), 1e-6) << "the arm held";
+    EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_IDLE);
+  }
+  rig.run(0.5, every_20ms(rig, twist_command(0.0, 0.0, 0.9)));  // 2.4x: clipped to 0.381 and obeyed
+  EXPECT_GT((position(rig.last().tool_pose) - start).norm(), 0.05);
+  EXPECT_NE(rig.last().fault_text.find("linear speed limited"), std::string::npos) << rig.last().fault_text;
+}
+
+// A pose goal capped below the documented minimum speed would run its dry
+// run for hours (and overflow the step count below 1e-9 m/s): refused at
+// once with the reason, the arm holds; so are negative and NaN caps.
+TEST(RobotLinkNode, PoseGoalSlowerThanTheMinimumIsRefusedWithItsReason) {
+  Rig rig(default_config());
+  rig.start();
+  const robot_state_t s0 = rig.last();
+  int64_t id = 100;
+  for (const double speed : {1e-4, 1e-5, 1e-12, 1e-300, -0.1, std::nan("")}) {
+    const int32_t events = rig.last().num_limit_events;
+    rig.inject(ch::kRobotCommand, pose_goal_command(s0, {0.1, 0.0, 0.0}, ++id, speed));
+    rig.run(0.05);
+    EXPECT_TRUE(rig.last().fault_flags & kFlagRefused) << speed;
+    EXPECT_EQ(rig.last().num_limit_events, events + 1) << speed;
+    const std::string why = speed > 0 ? "below the minimum 0.01 m/s (limits.min_goal_linear_speed)"
+                                      : "must be 0 (the link's limits) or a positive speed";
+    EXPECT_NE(rig.last().fault_text.find(why), std::string::npos) << speed << ": " << rig.last().fault_text;
+  }
+  harvest::robot_command_t turn = pose_goal_command(s0, {0.0, 0.0, 0.0}, ++id, 0.0);
+  turn.max_angular_speed = 0.001;
+  rig.inject(ch::kRobotCommand, turn);
+  rig.run(0.05);
+  EXPECT_NE(rig.last().fault_text.find("below the minimum 0.02 rad/s"), std::string::npos) << rig.last().fault_text;
+  EXPECT_LT((position(rig.last().tool_pose) - position(s0.tool_pose)).norm(), 1e-6) << "the arm held";
+  EXPECT_EQ(counter(rig.node(), "pose_goals_cartesian"), 0) << "nothing was planned";
+}
+
+TEST(RobotLinkNode, PoseGoalLongerThanTheMaximumDurationIsRefused) {
+  RobotLinkConfig c = default_config();
+  c.dry_run.max_duration = 5.0;
+  Rig rig(std::move(c));
+  rig.start();
+  rig.inject(ch::kRobotCommand, pose_goal_command(rig.last(), {0.2, 0.0, 0.0}, 7, 0.02));  // 10 s and more
+  rig.run(0.05);
+  EXPECT_TRUE(rig.last().fault_flags & kFlagRefused);
+  EXPECT_NE(rig.last().fault_text.find("more than the 5 s a goal may take"), std::string::npos)
+      << rig.last().fault_text;
+}
+
+// The dry run of a long slow goal (0.1 m at 0.02 m/s: 5.6 s, 560 steps plus
+// settling) is not done in one go: at most steps_per_period steps in the
+// command's handler and then after each SYNC, the arm holding meanwhile; then
+// the goal runs as it would have.
+TEST(RobotLinkNode, LongPoseGoalIsDryRunInSlicesThenRuns) {
+  RobotLinkConfig c = default_config();
+  const int per_period = c.dry_run.steps_per_period;
+  Rig rig(std::move(c));
+  rig.start();
+  const robot_state_t s0 = rig.last();
+  const auto cmd = pose_goal_command(s0, {0.0, 0.1, 0.0}, 9, 0.02);
+  rig.inject(ch::kRobotCommand, cmd);
+  EXPECT_EQ(counter(rig.node(), "pose_goals_cartesian"), 0) << "decided within the handler";
+  const std::size_t at_goal = rig.states().size();
+  ASSERT_TRUE(rig.run_until([&] { return counter(rig.node(), "pose_goals_cartesian") == 1; }, 2.0,
+                            every_20ms(rig, cmd)));
+  EXPECT_GE(rig.states().size() - at_goal, static_cast<std::size_t>(560 / per_period))
+      << "periods between the goal and its decision";
+  EXPECT_LT((position(rig.last().tool_pose) - position(s0.tool_pose)).norm(), 1e-3) << "held while planning";
+  rig.run(2.0, every_20ms(rig, cmd));
+  const Eigen::Vector3d moved = position(rig.last().tool_pose) - position(s0.tool_pose);
+  EXPECT_NEAR(moved.y(), 0.02 * 2.0, 0.01) << moved.transpose() << " (cruising at 0.02 m/s)";
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.last().fault_text;
+}
+
+// In slices or at once, the dry run is the same computation.
+TEST(PoseGoalDryRunner, InSlicesEqualsAllAtOnce) {
+  const RobotLinkConfig c = default_config();
+  const Eigen::Isometry3d start = kinematics::tool_pose(c.model, c.model.home);
+  Eigen::Isometry3d goal = start;
+  goal.translation() += Eigen::Vector3d(0.05, 0.1, -0.05);
+  goal.linear() = Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitY()).toRotationMatrix() * start.linear();
+  const CartesianTrajectory path(start, goal, {0.381, 1.0, 1.0, 3.0});
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(c.model.dof());
+  const PoseGoalDryRun whole = dry_run_pose_goal(c, path, c.model.home, zero, c.dry_run);
+  PoseGoalDryRunner sliced(c, path, c.model.home, zero, c.dry_run);
+  int slices = 1;
+  while (!sliced.run(37)) ++slices;
+  EXPECT_GT(slices, 2);
+  EXPECT_EQ(sliced.result().steps, whole.steps);
+  EXPECT_EQ(sliced.result().q, whole.q);
+  EXPECT_EQ(sliced.result().position_error, whole.position_error);
+  EXPECT_EQ(sliced.result().reached, whole.reached);
+  EXPECT_TRUE(sliced.run(1)) << "a finished dry run stays finished";
+}
+
+// A stray publisher's refused commands (50 a second) are each counted, but
+// logged at most once a second with how many the line stands for.
+TEST(RobotLinkNode, RefusalsAreLoggedAtMostOnceASecondWithACount) {
+  std::ostringstream captured;
+  const auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("capture", std::make_shared<spdlog::sinks::ostream_sink_st>(captured)));
+  Rig rig(default_config());
+  rig.start();
+  const int64_t before = counter(rig.node(), "commands_refused");
+  rig.run(3.0, every_20ms(rig, twist_command(1e9, 0.0, 0.0)));
+  spdlog::set_default_logger(previous);
+  const std::string log = captured.str();
+  int lines = 0;
+  for (std::size_t at = log.find("refused"); at != std::string::npos; at = log.find("refused", at + 1)) ++lines;
+  EXPECT_GE(counter(rig.node(), "commands_refused") - before, 140);
+  EXPECT_GE(lines, 2);
+  EXPECT_LE(lines, 4) << log;
+  EXPECT_NE(log.find("limit events not logged"), std::string::npos) << log;
 }
 
 // ---- Pose goals: the Cartesian dry run, the joint-space fallback, refusal.

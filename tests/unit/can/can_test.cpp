@@ -136,6 +136,37 @@ TEST(OpenBus, RejectsBadSpecs) {
   EXPECT_THROW(open_bus("udp_multicast:10.0.0.1:43113"), CanError);  // not multicast
   EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:port"), CanError);
   EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:70000"), CanError);
+  EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:43113?ttl=256"), CanError);
+  EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:43113?ttl=-1"), CanError);
+  EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:43113?ttl="), CanError);
+  EXPECT_THROW(open_bus("udp_multicast:239.74.163.2:43113?hops=0"), CanError);
+  EXPECT_THROW(open_bus("socketcan:can0?ttl=0"), CanError);
+}
+
+// Checked without opening anything (what --check-config relies on), with a
+// message that names the string and says what is wrong.
+TEST(BusSpec, ParsesWithoutOpeningAndExplainsRefusals) {
+  const BusSpec d = parse_bus_spec("udp_multicast");
+  EXPECT_EQ(d.kind, BusSpec::Kind::kUdpMulticast);
+  EXPECT_EQ(d.udp.group, "239.74.163.2");
+  EXPECT_EQ(d.udp.port, 43113);
+  EXPECT_EQ(d.udp.hop_limit, 0) << "the virtual bus stays on this host unless told otherwise";
+  EXPECT_EQ(d.describe(), "udp_multicast:239.74.163.2:43113?ttl=0");
+  const BusSpec l = parse_bus_spec("udp_multicast:239.74.163.9:61234?ttl=1");
+  EXPECT_EQ(l.udp.group, "239.74.163.9");
+  EXPECT_EQ(l.udp.port, 61234);
+  EXPECT_EQ(l.udp.hop_limit, 1);
+  EXPECT_EQ(parse_bus_spec("udp_multicast:239.74.163.9?ttl=2").udp.port, 43113);
+  const BusSpec s = parse_bus_spec("socketcan:can1");
+  EXPECT_EQ(s.kind, BusSpec::Kind::kSocketCan);
+  EXPECT_EQ(s.interface, "can1");
+  try {
+    parse_bus_spec("canbus:can0");
+    ADD_FAILURE() << "an unknown transport was accepted";
+  } catch (const CanError& e) {
+    EXPECT_NE(std::string(e.what()).find("'canbus:can0'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("unknown transport 'canbus'"), std::string::npos) << e.what();
+  }
 }
 
 // A port no other test process uses at the same time.
@@ -169,6 +200,20 @@ TEST(UdpMulticast, MembersExchangeFramesAndDoNotHearThemselves) {
   ASSERT_TRUE(got);
   EXPECT_EQ(got->id, 0x581u);
   EXPECT_EQ(got->dlc, 6);
+}
+
+// The TTL the kernel really uses for the frames we send, read back with
+// getsockopt: 0 (this host only) unless the bus string says otherwise.
+TEST(UdpMulticast, TtlComesFromTheBusStringAndDefaultsToThisHostOnly) {
+  const std::string group_port = "udp_multicast:239.74.163.2:" + std::to_string(test_port());
+  for (const auto& [suffix, ttl] : std::vector<std::pair<std::string, int>>{{"", 0}, {"?ttl=0", 0}, {"?ttl=1", 1},
+                                                                            {"?ttl=5", 5}}) {
+    auto bus = open_bus(group_port + suffix);
+    auto* udp = dynamic_cast<UdpMulticastBus*>(bus.get());
+    ASSERT_NE(udp, nullptr);
+    EXPECT_EQ(udp->multicast_ttl(), ttl) << group_port + suffix;
+    EXPECT_NE(udp->describe().find("?ttl=" + std::to_string(ttl)), std::string::npos) << udp->describe();
+  }
 }
 
 TEST(UdpMulticast, FiltersAndMalformedDatagrams) {
