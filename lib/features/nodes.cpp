@@ -3,8 +3,8 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "camera/image_codec.hpp"
 #include "runtime/channels.hpp"
-#include "vision/image_codec.hpp"
 
 namespace harvest::features {
 
@@ -98,7 +98,7 @@ cv::Rect FeatureTrackerNode::region_for(const image_t& image, const cv::Size& si
     return {};  // no fruit: nowhere (the caller knows the mode)
   const fruit_t& f = fruit_->fruits[static_cast<std::size_t>(fruit_->selected_index)];
   // Sensor pixels -> image pixels.
-  const cv::Rect2d roi = vision::image_roi(image);
+  const cv::Rect2d roi = camera::image_roi(image);
   const double sx = size.width / roi.width, sy = size.height / roi.height;
   const double mx = config_.fruit_margin * f.bbox_px[2], my = config_.fruit_margin * f.bbox_px[3];
   const cv::Rect2d box((f.bbox_px[0] - mx - roi.x) * sx, (f.bbox_px[1] - my - roi.y) * sy, (f.bbox_px[2] + 2 * mx) * sx,
@@ -117,7 +117,7 @@ cv::Mat1b to_gray(const cv::Mat3b& bgr) {
 }  // namespace
 
 void FeatureTrackerNode::on_desired(const image_t& image) {
-  const auto d = vision::decode_image(image);
+  const auto d = camera::decode_image(image);
   if (!d.ok()) {
     count("bad_desired_images");
     set_health(rt::Health::kDegraded, "desired image: " + d.error);
@@ -128,14 +128,14 @@ void FeatureTrackerNode::on_desired(const image_t& image) {
 }
 
 void FeatureTrackerNode::on_image(const image_t& image) {
-  const auto d = vision::decode_image(image);
+  const auto d = camera::decode_image(image);
   if (!d.ok()) {
     count("bad_images");
     set_health(rt::Health::kDegraded, d.error);
     return;
   }
   const cv::Mat1b gray = to_gray(d.bgr);
-  const cv::Rect2d roi = vision::image_roi(image);
+  const cv::Rect2d roi = camera::image_roi(image);
   const double sx = roi.width / gray.cols, sy = roi.height / gray.rows;
   const bool fruit_mode = config_.region == "fruit";
   cv::Rect region = region_for(image, gray.size());

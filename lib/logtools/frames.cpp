@@ -8,10 +8,10 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "camera/image_codec.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/image_t.hpp"
 #include "runtime/log_io.hpp"
-#include "vision/image_codec.hpp"
 
 namespace harvest::logtools {
 
@@ -38,13 +38,13 @@ std::vector<std::string> write_frames(const std::vector<rt::LogRecord>& log, con
     ++index;
     if (o.every > 1 && index % o.every != 0) continue;
     if (static_cast<int>(written.size()) >= o.max) break;
-    auto decoded = vision::decode_image(*img);
+    auto decoded = camera::decode_image(*img);
     if (!decoded.ok()) {
       err << o.image_channel << " #" << index << ": " << decoded.error << "\n";
       continue;
     }
     cv::Mat3b canvas = decoded.bgr.clone();
-    const cv::Rect2d roi = vision::image_roi(*img);
+    const cv::Rect2d roi = camera::image_roi(*img);
     const double sx = roi.width > 0 ? canvas.cols / roi.width : 1.0;
     const double sy = roi.height > 0 ? canvas.rows / roi.height : 1.0;
     auto it = detections.find(img->header.utime);

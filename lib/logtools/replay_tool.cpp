@@ -13,7 +13,8 @@
 #include "runtime/log_io.hpp"
 #include "runtime/replay_runner.hpp"
 #include "servo/nodes.hpp"
-#include "vision/nodes.hpp"
+#include "vision/detector_node.hpp"
+#include "vision/reconstructor_node.hpp"
 #ifdef HARVEST_HAVE_FEATURE_TRACKER
 #include "features/nodes.hpp"
 #endif

@@ -5,12 +5,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 
+#include "camera/image_codec.hpp"
 #include "harvest/gripper_command_t.hpp"
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
-#include "vision/image_codec.hpp"
 
 namespace harvest::sim {
 namespace {
@@ -256,7 +256,7 @@ void SimNode::check_done() {
 image_t SimNode::make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width,
                             int sensor_height) {
   image_t img;
-  vision::encode_image(bgr, encoding == "jpeg", jpeg_quality, img);
+  camera::encode_image(bgr, encoding == "jpeg", jpeg_quality, img);
   // The frame shows the whole sensor, binned to the output size, as a camera
   // driver with a smaller output resolution publishes it.
   img.sensor_width = sensor_width > 0 ? sensor_width : bgr.cols;

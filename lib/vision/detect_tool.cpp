@@ -2,16 +2,14 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <ostream>
-#include <sstream>
 #include <stdexcept>
 
 #include "runtime/json.hpp"
 #include "runtime/process_main.hpp"
-#include "vision/nodes.hpp"
+#include "vision/detector_node.hpp"
+#include "vision/overlay.hpp"
 
 namespace harvest::vision {
 
@@ -37,29 +35,6 @@ std::string detections_json(const std::string& image, int width, int height, con
          ", \"selected\": " + (f.selected ? "true" : "false") + "}";
   }
   return s + "]}";
-}
-
-cv::Mat draw_overlay(const cv::Mat3b& image, const Detections& d) {
-  cv::Mat out = image.clone();
-  const double scale = std::max(0.4, image.cols / 1000.0);
-  for (std::size_t i = 0; i < d.fruits.size(); ++i) {
-    const Fruit& f = d.fruits[i];
-    const cv::Scalar colour = f.selected ? cv::Scalar(0, 0, 255) : cv::Scalar(255, 255, 0);
-    cv::polylines(out, std::vector<std::vector<cv::Point>>{f.outline}, true, colour, 1, cv::LINE_AA);
-    if (f.circle_fitted)
-      cv::circle(out, cv::Point2d(f.u, f.v), static_cast<int>(std::lround(f.diameter_px / 2)), colour, 1, cv::LINE_AA);
-    const cv::Point c(static_cast<int>(std::lround(f.u)), static_cast<int>(std::lround(f.v)));
-    cv::drawMarker(out, c, colour, cv::MARKER_CROSS, 10, 1);
-    // Built by appends: GCC 12 warns falsely (-Wrestrict) on "literal" + std::string.
-    std::string label = "#";
-    label += std::to_string(i);
-    label += ' ';
-    label += number(f.depth_m, 2);
-    label += " m";
-    cv::putText(out, label, c + cv::Point(6, -6), cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-    cv::putText(out, label, c + cv::Point(6, -6), cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
-  }
-  return out;
 }
 
 namespace {
@@ -117,86 +92,6 @@ bool write_overlay(const DetectToolOptions& options, const std::string& path, co
 
 }  // namespace
 
-double iou(const BoxF& a, const BoxF& b) {
-  const BoxF i{std::max(a.x1, b.x1), std::max(a.y1, b.y1), std::min(a.x2, b.x2), std::min(a.y2, b.y2)};
-  const double inter = i.area();
-  const double uni = a.area() + b.area() - inter;
-  return uni > 0 ? inter / uni : 0.0;
-}
-
-std::vector<int> match_boxes(const std::vector<DetectionBox>& detections, const std::vector<BoxF>& boxes,
-                             double min_iou) {
-  struct Pair {
-    double score;
-    int det, box;
-  };
-  std::vector<Pair> pairs;
-  for (std::size_t d = 0; d < detections.size(); ++d)
-    for (std::size_t b = 0; b < boxes.size(); ++b) {
-      const DetectionBox& x = detections[d];
-      const BoxF& y = boxes[b];
-      const bool inside = x.u >= y.x1 && x.u <= y.x2 && x.v >= y.y1 && x.v <= y.y2;
-      const double overlap = iou(x.box, y);
-      if (inside || overlap >= min_iou)
-        pairs.push_back({(inside ? 1.0 : 0.0) + overlap, static_cast<int>(d), static_cast<int>(b)});
-    }
-  std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.score > b.score; });
-  std::vector<int> match(detections.size(), -1);
-  std::vector<bool> taken(boxes.size(), false);
-  for (const Pair& p : pairs) {
-    if (match[static_cast<std::size_t>(p.det)] >= 0 || taken[static_cast<std::size_t>(p.box)]) continue;
-    match[static_cast<std::size_t>(p.det)] = p.box;
-    taken[static_cast<std::size_t>(p.box)] = true;
-  }
-  return match;
-}
-
-DetectionBox detection_box(const Fruit& f) {
-  if (f.circle_fitted) {
-    const double r = 0.5 * f.diameter_px;
-    return {f.u, f.v, {f.u - r, f.v - r, f.u + r, f.v + r}};
-  }
-  return {f.u,
-          f.v,
-          {static_cast<double>(f.bbox.x), static_cast<double>(f.bbox.y), static_cast<double>(f.bbox.x + f.bbox.width),
-           static_cast<double>(f.bbox.y + f.bbox.height)}};
-}
-
-std::vector<std::pair<std::string, std::vector<BoxF>>> read_boxes_csv(const std::filesystem::path& csv) {
-  std::ifstream in(csv);
-  if (!in) throw std::runtime_error("cannot read " + csv.string());
-  std::vector<std::pair<std::string, std::vector<BoxF>>> out;
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || (number == 1 && line.rfind("image,", 0) == 0)) continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
-    BoxF b{};
-    try {
-      if (cells.size() != 7) throw std::invalid_argument("columns");
-      b = {std::stod(cells[3]), std::stod(cells[4]), std::stod(cells[5]), std::stod(cells[6])};
-    } catch (const std::exception&) {
-      throw std::runtime_error(csv.string() + ":" + std::to_string(number) +
-                               ": expected image,img_w,img_h,x1,y1,x2,y2");
-    }
-    if (out.empty() || out.back().first != cells[0]) {
-      auto it = std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == cells[0]; });
-      if (it == out.end()) {
-        out.emplace_back(cells[0], std::vector<BoxF>{});
-        it = out.end() - 1;
-      }
-      it->second.push_back(b);
-    } else {
-      out.back().second.push_back(b);
-    }
-  }
-  return out;
-}
-
 int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ostream& err) {
   DetectorNodeConfig config;
   if (!prepare(options, config, err)) return 2;
@@ -233,12 +128,7 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
         << "}\n";
     if (!options.overlay_dir.empty()) {
       cv::Mat overlay = draw_overlay(img, d);
-      for (const BoxF& b : boxes)
-        cv::rectangle(overlay, cv::Point2d(b.x1, b.y1), cv::Point2d(b.x2, b.y2), cv::Scalar(0, 255, 0), 2);
-      for (std::size_t i = 0; i < dets.size(); ++i)
-        if (match[i] < 0)
-          cv::drawMarker(overlay, cv::Point2d(dets[i].u, dets[i].v), cv::Scalar(255, 0, 255), cv::MARKER_TILTED_CROSS,
-                         24, 2);
+      draw_box_evaluation(overlay, boxes, dets, match);
       if (!write_overlay(options, path, overlay, err)) rc = 1;
     }
   }

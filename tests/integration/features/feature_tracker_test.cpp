@@ -13,10 +13,10 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
+#include "camera/image_codec.hpp"
 #include "runtime/log_io.hpp"
 #include "synthetic.hpp"
 #include "test_support.hpp"
-#include "vision/image_codec.hpp"
 
 using namespace harvest;
 namespace ht = harvest::testing;
@@ -80,7 +80,7 @@ image_t make_image(const cv::Mat1b& gray, int64_t seq) {
   m.header.source_seq = -1;
   m.sensor_width = gray.cols;
   m.sensor_height = gray.rows;
-  vision::encode_image(bgr, false, 90, m);
+  camera::encode_image(bgr, false, 90, m);
   return m;
 }
 

@@ -12,9 +12,9 @@
 #include <opencv2/videoio.hpp>
 
 #include "bus.hpp"
+#include "camera/image_codec.hpp"
 #include "runtime/clock.hpp"
 #include "test_support.hpp"
-#include "vision/image_codec.hpp"
 
 namespace ht = harvest::testing;
 using namespace std::chrono_literals;
@@ -98,7 +98,7 @@ TEST_F(CameraProcess, FolderWithZoomAndJpegInNameOrderSkippingABadFile) {
     EXPECT_EQ(f.roi_px[1], 60);
     EXPECT_EQ(f.roi_px[2], 160);
     EXPECT_EQ(f.roi_px[3], 120);
-    const DecodedImage d = decode_image(f);
+    const camera::DecodedImage d = camera::decode_image(f);
     ASSERT_TRUE(d.ok()) << d.error;
     ASSERT_EQ(d.bgr.cols, 320);
     ASSERT_EQ(d.bgr.rows, 240);
@@ -151,7 +151,7 @@ TEST_F(CameraProcess, VideoFileAtOutputResolution) {
     EXPECT_EQ(f.stride, 160 * 3);
     EXPECT_EQ(f.sensor_width, 320);
     EXPECT_EQ(f.roi_px[2], 320);  // no zoom: the whole sensor
-    const DecodedImage d = decode_image(f);
+    const camera::DecodedImage d = camera::decode_image(f);
     ASSERT_TRUE(d.ok()) << d.error;
     const Blob b = orange_blob(d.bgr);
     EXPECT_NEAR(b.x, (60 + 25 * i + 0.5) / 2 - 0.5, 1.0) << "frame " << i;

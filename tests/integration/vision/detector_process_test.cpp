@@ -11,9 +11,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bus.hpp"
+#include "camera/image_codec.hpp"
 #include "runtime/clock.hpp"
 #include "test_support.hpp"
-#include "vision/image_codec.hpp"
 
 namespace ht = harvest::testing;
 using namespace std::chrono_literals;
@@ -35,7 +35,7 @@ image_t image(const cv::Mat3b& bgr, bool jpeg, int64_t seq) {
   m.header.seq = seq;
   m.header.frame_id = "camera_fixed";
   m.header.source_seq = -1;
-  encode_image(bgr, jpeg, 90, m);
+  camera::encode_image(bgr, jpeg, 90, m);
   m.sensor_width = bgr.cols;
   m.sensor_height = bgr.rows;
   return m;

@@ -1,18 +1,21 @@
 // The camera driver node on a scripted frame source, driven by the replay
 // runner's clock: an unplugged device is reopened with doubling back-off and
 // the frames go on with consecutive sequence numbers; a bad frame is skipped.
+// The shipped driver configurations load.
+#include "camera/camera_node.hpp"
+
 #include <gtest/gtest.h>
 
 #include <deque>
 
+#include "harvest/image_t.hpp"
 #include "runtime/log_io.hpp"
 #include "runtime/replay_runner.hpp"
 #include "test_support.hpp"
-#include "vision/nodes.hpp"
 
 namespace ht = harvest::testing;
 
-namespace harvest::vision {
+namespace harvest::camera {
 namespace {
 
 struct Script {
@@ -129,5 +132,16 @@ TEST(CameraNode, BadFrameIsSkippedAndCounted) {
   EXPECT_EQ(node.health(), rt::Health::kOk);
 }
 
+TEST(CameraConfig, ShippedFilesLoadWithoutUnknownKeys) {
+  for (const char* cam : {"fixed", "hand"}) {
+    auto doc = config::Document::load_file(std::string("config/vision/camera-") + cam + ".yaml");
+    const CameraConfig c = CameraConfig::from_yaml(doc.root());
+    EXPECT_NO_THROW(doc.check_unused());
+    EXPECT_EQ(c.camera, cam);
+    EXPECT_EQ(c.channel, std::string("CAMERA_") + (std::string(cam) == "fixed" ? "FIXED" : "HAND"));
+    EXPECT_EQ(c.source, "device");
+  }
+}
+
 }  // namespace
-}  // namespace harvest::vision
+}  // namespace harvest::camera

@@ -1,11 +1,11 @@
-#include "vision/image_codec.hpp"
+#include "camera/image_codec.hpp"
 
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-namespace harvest::vision {
+namespace harvest::camera {
 
 namespace {
 constexpr int kMaxSide = 16384;
@@ -111,4 +111,4 @@ cv::Rect2d image_roi(const image_t& msg) {
   return {0, 0, static_cast<double>(msg.width), static_cast<double>(msg.height)};
 }
 
-}  // namespace harvest::vision
+}  // namespace harvest::camera

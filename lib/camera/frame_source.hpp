@@ -8,13 +8,13 @@
 #include <string>
 #include <vector>
 
-namespace harvest::vision {
+namespace harvest::camera {
 
 enum class ReadStatus {
-  kFrame,    // a frame was read
-  kBadFrame, // this frame is unusable (e.g. an unreadable file); the next may be fine
-  kEnd,      // no more frames (file or folder finished, no loop)
-  kLost,     // the device failed; close and reopen
+  kFrame,     // a frame was read
+  kBadFrame,  // this frame is unusable (e.g. an unreadable file); the next may be fine
+  kEnd,       // no more frames (file or folder finished, no loop)
+  kLost,      // the device failed; close and reopen
 };
 
 struct ReadResult {
@@ -47,4 +47,4 @@ std::unique_ptr<FrameSource> make_folder_source(const std::filesystem::path& fol
 // Image files of a folder (by extension, case-insensitive), sorted by name.
 std::vector<std::filesystem::path> list_images(const std::filesystem::path& folder);
 
-}  // namespace harvest::vision
+}  // namespace harvest::camera

@@ -1,12 +1,12 @@
 // image_t <-> cv::Mat: round trips of every encoding, and every malformed
 // frame is an error with a clear text, never a crash or an over-read.
-#include "vision/image_codec.hpp"
+#include "camera/image_codec.hpp"
 
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
 
-namespace harvest::vision {
+namespace harvest::camera {
 namespace {
 
 cv::Mat3b test_image(int w = 64, int h = 48) {
@@ -137,4 +137,4 @@ TEST(ImageCodec, RoiDefaultsToTheWholeImage) {
 }
 
 }  // namespace
-}  // namespace harvest::vision
+}  // namespace harvest::camera

@@ -1,4 +1,4 @@
-#include "vision/frame_source.hpp"
+#include "camera/frame_source.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -7,16 +7,19 @@
 #include <opencv2/videoio.hpp>
 #include <stdexcept>
 
-namespace harvest::vision {
+namespace harvest::camera {
 
 namespace {
 
 cv::Mat to_bgr(const cv::Mat& m) {
   if (m.type() == CV_8UC3) return m;
   cv::Mat out;
-  if (m.channels() == 1) cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
-  else if (m.channels() == 4) cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
-  else return {};
+  if (m.channels() == 1)
+    cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
+  else if (m.channels() == 4)
+    cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
+  else
+    return {};
   if (out.depth() != CV_8U) out.convertTo(out, CV_8U);
   return out;
 }
@@ -43,14 +46,16 @@ class CaptureSource : public FrameSource {
           cap_.set(cv::CAP_PROP_FPS, options_.fps);
         }
       } else {
-        if (!std::filesystem::is_regular_file(what_)) throw std::runtime_error("video file " + what_ + ": no such file");
+        if (!std::filesystem::is_regular_file(what_))
+          throw std::runtime_error("video file " + what_ + ": no such file");
         ok = cap_.open(what_);
       }
     } catch (const cv::Exception& e) {
       throw std::runtime_error("cannot open " + describe() + ": " + e.what());
     }
     if (!ok || !cap_.isOpened())
-      throw std::runtime_error("cannot open " + describe() + (is_device_ ? " (missing, busy or no permission)" : " (not a readable video)"));
+      throw std::runtime_error("cannot open " + describe() +
+                               (is_device_ ? " (missing, busy or no permission)" : " (not a readable video)"));
   }
 
   void close() override { cap_.release(); }
@@ -147,4 +152,4 @@ std::unique_ptr<FrameSource> make_folder_source(const std::filesystem::path& fol
   return std::make_unique<FolderSource>(folder, loop);
 }
 
-}  // namespace harvest::vision
+}  // namespace harvest::camera

@@ -1,13 +1,14 @@
 // Scoring detections against annotated boxes (harvest-detect --evaluate), and
-// the shipped process configurations load without unknown keys.
+// the shipped detector configurations load without unknown keys.
+#include "vision/box_evaluation.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
 
 #include "config/config.hpp"
 #include "test_support.hpp"
-#include "vision/detect_tool.hpp"
-#include "vision/nodes.hpp"
+#include "vision/detector_node.hpp"
 
 namespace ht = harvest::testing;
 
@@ -74,14 +75,8 @@ TEST(Evaluation, ReadsBoxesCsvGroupedByImage) {
   EXPECT_THROW(read_boxes_csv(dir / "none.csv"), std::runtime_error);
 }
 
-TEST(ShippedConfig, CameraAndDetectorFilesLoadWithoutUnknownKeys) {
+TEST(ShippedConfig, DetectorFilesLoadWithoutUnknownKeys) {
   for (const char* cam : {"fixed", "hand"}) {
-    auto cdoc = config::Document::load_file(std::string("config/vision/camera-") + cam + ".yaml");
-    const CameraConfig c = CameraConfig::from_yaml(cdoc.root());
-    EXPECT_NO_THROW(cdoc.check_unused());
-    EXPECT_EQ(c.camera, cam);
-    EXPECT_EQ(c.channel, std::string("CAMERA_") + (std::string(cam) == "fixed" ? "FIXED" : "HAND"));
-    EXPECT_EQ(c.source, "device");
     auto ddoc = config::Document::load_file(std::string("config/vision/detector-") + cam + ".yaml");
     const DetectorNodeConfig d = DetectorNodeConfig::from_yaml(ddoc.root());
     EXPECT_NO_THROW(ddoc.check_unused());

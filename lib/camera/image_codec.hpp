@@ -7,7 +7,7 @@
 
 #include "harvest/image_t.hpp"
 
-namespace harvest::vision {
+namespace harvest::camera {
 
 struct DecodedImage {
   cv::Mat3b bgr;      // MONO8 frames are expanded to BGR
@@ -26,4 +26,4 @@ void encode_image(const cv::Mat& bgr, bool jpeg, int jpeg_quality, image_t& msg)
 // the sender left it empty.
 cv::Rect2d image_roi(const image_t& msg);
 
-}  // namespace harvest::vision
+}  // namespace harvest::camera
