@@ -63,6 +63,10 @@ Supervisor::Supervisor(SetSpec set, SupervisorOptions options, Console& console,
     for (const auto& [k, v] : m.spec.env) m.env[k] = v;
     procs_.push_back(std::move(m));
   }
+  // Forked before any child; the grace is the longest stop a process asked for.
+  double grace_s = 1;
+  for (const auto& m : procs_) grace_s = std::max(grace_s, m.spec.stop_timeout_s);
+  guardian_ = std::make_unique<Guardian>(std::chrono::milliseconds(static_cast<int64_t>(grace_s * 1000)));
 }
 
 Supervisor::~Supervisor() {
@@ -71,6 +75,7 @@ Supervisor::~Supervisor() {
       signal_group(m.pid, SIGKILL);
       int st = 0;
       waitpid(m.pid, &st, 0);
+      guardian_->forget(m.pid);
     }
     if (m.fd >= 0) close(m.fd);
   }
@@ -102,6 +107,7 @@ void Supervisor::start(Managed& m) {
     const Spawned s = spawn(m.argv, m.env, m.spec.cwd);
     m.pid = s.pid;
     m.fd = s.output_fd;
+    guardian_->watch(m.pid, m.stop_signal);
   } catch (const std::system_error& e) {
     say(m.spec.name + ": cannot start: " + e.what());
     on_exit(m, 127);
@@ -147,6 +153,7 @@ void Supervisor::reap() {
     drain_output(m);
     // Whatever the process left behind in its group goes with it: no orphans.
     signal_group(m.pid, SIGKILL);
+    guardian_->forget(m.pid);
     m.pid = -1;
     on_exit(m, exit_code_of(status));
   }

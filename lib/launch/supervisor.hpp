@@ -13,12 +13,14 @@
 #include <harvest/process_status_t.hpp>
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "launch/child.hpp"
 #include "launch/console.hpp"
+#include "launch/guardian.hpp"
 #include "launch/set_spec.hpp"
 #include "runtime/node.hpp"
 
@@ -90,6 +92,8 @@ class Supervisor final : public rt::Node {
   std::size_t stage_ = 0;
   bool stage_signalled_ = false;
   rt::Micros stage_deadline_ = 0;
+  // Stops every group still running if this process dies without doing so.
+  std::unique_ptr<Guardian> guardian_;
 };
 
 }  // namespace harvest::launch

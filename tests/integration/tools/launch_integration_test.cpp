@@ -137,6 +137,47 @@ TEST(Launch, StopsEverythingOnSigtermArmFirstWithNothingLeftBehind) {
   EXPECT_NE(out.find("stubborn did not stop within 0.5 s: SIGKILL"), std::string::npos) << out;
 }
 
+TEST(Launch, LeavesNothingBehindWhenTheLauncherIsKilledWithSigkill) {
+  Launch l;
+  const std::string sleeper = kFixtures + "/sleeper.sh";
+  // "careless" dies of SIGTERM and leaves its own child; "stubborn" ignores
+  // SIGTERM. PR_SET_PDEATHSIG alone would leave both families running.
+  const auto set = l.write_set(
+      "processes:\n"
+      "  - name: careless\n    command: /bin/sh\n    harvest_options: false\n"
+      "    args: [-c, 'sleep 300 & echo $$ $! > $PID_DIR/careless.tmp && mv $PID_DIR/careless.tmp $PID_DIR/careless; "
+      "wait']\n"
+      "  - {name: stubborn, command: " +
+      sleeper + ", args: [stubborn, stubborn], harvest_options: false, stop_timeout_s: 0.5}\n");
+  auto launch = l.start(set);
+  const std::vector<std::string> names{"careless", "stubborn"};
+  ASSERT_TRUE(eventually(
+      [&] { return std::all_of(names.begin(), names.end(), [&](const std::string& n) { return exists(l.dir / n); }); },
+      10s))
+      << launch->output();
+  std::vector<pid_t> pids;
+  for (const auto& n : names) {
+    std::istringstream in(read_file(l.dir / n));
+    pid_t a = 0, b = 0;
+    in >> a >> b;
+    pids.insert(pids.end(), {a, b});
+  }
+  for (pid_t p : pids) ASSERT_TRUE(alive(p)) << p;
+
+  launch->signal(SIGKILL);
+  EXPECT_EQ(launch->wait(5s), 128 + SIGKILL);
+  // The stubborn one gets its 0.5 s, then SIGKILL.
+  EXPECT_TRUE(eventually([&] { return std::none_of(pids.begin(), pids.end(), alive); }, 10s))
+      << "left behind after kill -9 of the launcher:" << [&] {
+           std::string left;
+           for (pid_t p : pids)
+             if (alive(p)) left += " " + std::to_string(p);
+           return left;
+         }() << "\n"
+      << launch->output();
+  EXPECT_NE(launch->output().find("guardian: the launcher died"), std::string::npos) << launch->output();
+}
+
 TEST(Launch, RefusesAnInvalidSetWithAClearMessage) {
   Launch l;
   const auto bad = l.write_set("processes:\n  - {name: a, command: x, after: [b]}\n");
