@@ -22,6 +22,7 @@ struct CornerParams {
   double min_distance = 10.0;    // minimum spacing between accepted corners [px]
   int max_corners = 200;         // 0 = no limit
   int border = 10;               // pixels along the image edge that are not searched
+  bool allow_simd = true;        // AVX2 when the CPU has it (same result as the portable build; tests compare)
 };
 
 struct Corner {
@@ -30,13 +31,13 @@ struct Corner {
 };
 
 // Smaller eigenvalue of Z at every pixel (CV_32F, zero where the window
-// leaves the image). `gray` is CV_8U, one channel.
-cv::Mat1f min_eigenvalue_map(const cv::Mat1b& gray, int window);
+// leaves the image). `gray` is CV_8U, one channel; `window` odd, 3..45 (the
+// sums are exact integers; larger windows would overflow them: cv::Exception).
+cv::Mat1f min_eigenvalue_map(const cv::Mat1b& gray, int window, bool allow_simd = true);
 
-// Corners, strongest first. `region` (empty = whole image) and `mask`
-// (empty = everything; non-zero = allowed, same size as the image) restrict
-// where corners may be. `existing` are features already held: new corners
-// keep min_distance from them too (replenishment).
+// Corners, strongest first (equal values: the later pixel in row-major order first). `region` (empty = whole image) and
+// `mask` (empty = everything; non-zero = allowed, same size as the image) restrict where corners may be. `existing` are
+// features already held: new corners keep min_distance from them too (replenishment).
 std::vector<Corner> detect_corners(const cv::Mat1b& gray, const CornerParams& params, const cv::Rect& region = {},
                                    const cv::Mat1b& mask = {}, const std::vector<cv::Point2f>& existing = {});
 

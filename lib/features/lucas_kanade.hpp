@@ -12,11 +12,13 @@
 namespace harvest::features {
 
 // Gaussian pyramid: level 0 is the image (float), each further level is
-// smoothed with the 5-tap [1 4 6 4 1]/16 kernel and subsampled by 2.
+// smoothed with the 5-tap [1 4 6 4 1]/16 kernel and subsampled by 2. Levels
+// are views into buffers with zero padding right of and below the image (the
+// SIMD kernels read past a window's edge); they are not continuous.
 class Pyramid {
  public:
   Pyramid() = default;
-  Pyramid(const cv::Mat1b& gray, int levels);
+  Pyramid(const cv::Mat1b& gray, int levels, bool allow_simd = true);
   int levels() const { return static_cast<int>(level_.size()); }
   const cv::Mat1f& level(int i) const { return level_[static_cast<std::size_t>(i)]; }
   bool empty() const { return level_.empty(); }
@@ -26,7 +28,7 @@ class Pyramid {
 };
 
 // One pyramid level down (exposed for tests).
-cv::Mat1f pyramid_down(const cv::Mat1f& src);
+cv::Mat1f pyramid_down(const cv::Mat1f& src, bool allow_simd = true);
 
 struct LkParams {
   int window = 7;           // window side [px], odd (thesis Wx = Wy = 7)
@@ -37,6 +39,8 @@ struct LkParams {
   // previous window (before tracking) and in the new one (after): below it
   // the window is flat or one-directional and the feature is lost.
   double min_eigenvalue = 1e-2;
+  // AVX2 when the CPU has it; the portable build gives bit-identical results.
+  bool allow_simd = true;
 };
 
 struct LkResult {
