@@ -80,48 +80,101 @@ bool minimal_sample_degenerate(const Points2& pts, const std::array<int, 4>& s) 
   return false;
 }
 
-// Normalised DLT over the pairs in idx (eq. 2-17, 2-18).
+// Normalised DLT over the pairs in idx (eq. 2-17, 2-18): G is the null
+// vector of the 2n x 9 system M, found as the eigenvector of the smallest
+// eigenvalue of the 9 x 9 matrix M^T M (the pairs are Hartley-normalised, so
+// squaring the condition number costs no accuracy that matters here).
 Status dlt(const Points2& from, const Points2& to, const std::vector<int>& idx, Matrix3d& G) {
   if (idx.size() < 4) return Status::kTooFewPoints;
   Matrix3d Tf, Tt;
   if (!normalising_transform(from, idx, Tf) || !normalising_transform(to, idx, Tt)) return Status::kDegenerate;
   if (collinear(from, idx, Tf) || collinear(to, idx, Tt)) return Status::kDegenerate;
-  Eigen::MatrixXd M(2 * idx.size(), 9);
-  for (std::size_t k = 0; k < idx.size(); ++k) {
-    const Vector3d a = Tf * from[idx[k]].homogeneous();
-    const Vector3d b = Tt * to[idx[k]].homogeneous();
+  using Matrix9d = Eigen::Matrix<double, 9, 9>;
+  using Vector9d = Eigen::Matrix<double, 9, 1>;
+  Matrix9d MtM = Matrix9d::Zero();
+  for (int i : idx) {
+    const Vector3d a = Tf * from[i].homogeneous();
+    const Vector3d b = Tt * to[i].homogeneous();
     // b x (G a) = 0, two independent rows per pair.
-    M.row(2 * k) << 0, 0, 0, -b.z() * a.transpose(), b.y() * a.transpose();
-    M.row(2 * k + 1) << b.z() * a.transpose(), 0, 0, 0, -b.x() * a.transpose();
+    Vector9d r1, r2;
+    r1 << 0, 0, 0, -b.z() * a, b.y() * a;
+    r2 << b.z() * a, 0, 0, 0, -b.x() * a;
+    MtM.selfadjointView<Eigen::Lower>().rankUpdate(r1);
+    MtM.selfadjointView<Eigen::Lower>().rankUpdate(r2);
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeFullV);
-  const auto& sv = svd.singularValues();
+  const Eigen::SelfAdjointEigenSolver<Matrix9d> es(MtM.selfadjointView<Eigen::Lower>());
+  const auto& ev = es.eigenvalues();  // ascending
   // A second (near-)null direction means the pairs do not fix G.
-  if (sv.size() >= 8 && sv(7) < 1e-10 * sv(0)) return Status::kDegenerate;
-  const Eigen::VectorXd h = svd.matrixV().col(8);
+  if (ev(1) < 1e-14 * ev(8)) return Status::kDegenerate;
+  const Vector9d h = es.eigenvectors().col(0);
   Matrix3d Gn;
   Gn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
   G = Tt.inverse() * Gn * Tf;
-  const Eigen::JacobiSVD<Matrix3d> gs(G);
-  if (!(gs.singularValues()(2) > 1e-12 * gs.singularValues()(0))) return Status::kDegenerate;
+  // Singular G: no homography between two views.
+  if (!(std::abs(G.determinant()) > 1e-14 * std::pow(G.norm(), 3))) return Status::kDegenerate;
   if (std::abs(G(2, 2)) < 1e-14 * G.norm()) return Status::kDegenerate;  // g33 = 0 cannot be normalised
   G /= G(2, 2);
   return G.allFinite() ? Status::kOk : Status::kDegenerate;
 }
 
-void score(const Matrix3d& G, const Points2& from, const Points2& to, double threshold, HomographyFit& fit) {
-  fit.inliers.assign(from.size(), 0);
-  fit.num_inliers = 0;
-  double sum = 0.0;
+// Transfer error of every pair under G against the threshold, into
+// `inliers` (1/0); returns the count and the sum of squared inlier errors.
+int score(const Matrix3d& G, const Points2& from, const Points2& to, double threshold, std::vector<uint8_t>& inliers,
+          double& sum_sq) {
+  const double t2 = threshold * threshold;
+  const double g00 = G(0, 0), g01 = G(0, 1), g02 = G(0, 2), g10 = G(1, 0), g11 = G(1, 1), g12 = G(1, 2), g20 = G(2, 0),
+               g21 = G(2, 1), g22 = G(2, 2);
+  int count = 0;
+  sum_sq = 0.0;
   for (std::size_t i = 0; i < from.size(); ++i) {
-    const double e = transfer_error(G, from[i], to[i]);
-    if (e < threshold) {
-      fit.inliers[i] = 1;
-      ++fit.num_inliers;
-      sum += e * e;
+    const double x = from[i].x(), y = from[i].y();
+    const double w = g20 * x + g21 * y + g22;
+    double e2 = std::numeric_limits<double>::infinity();
+    if (std::abs(w) >= 1e-15) {
+      const double ex = (g00 * x + g01 * y + g02) / w - to[i].x(), ey = (g10 * x + g11 * y + g12) / w - to[i].y();
+      e2 = ex * ex + ey * ey;
     }
+    const bool in = e2 < t2;
+    inliers[i] = in;
+    count += in;
+    sum_sq += in ? e2 : 0.0;
   }
+  return count;
+}
+
+void score(const Matrix3d& G, const Points2& from, const Points2& to, double threshold, HomographyFit& fit) {
+  fit.inliers.resize(from.size());
+  double sum = 0.0;
+  fit.num_inliers = score(G, from, to, threshold, fit.inliers, sum);
   fit.rms_error_px = fit.num_inliers > 0 ? std::sqrt(sum / fit.num_inliers) : 0.0;
+}
+
+// The projective map of the unit square (0,0) (1,0) (1,1) (0,1) onto the
+// quadrilateral q0..q3 (Heckbert's closed form). False when three corners
+// are collinear.
+bool square_to_quad(const Vector2d& q0, const Vector2d& q1, const Vector2d& q2, const Vector2d& q3, Matrix3d& M) {
+  const double sx = q0.x() - q1.x() + q2.x() - q3.x(), sy = q0.y() - q1.y() + q2.y() - q3.y();
+  const double dx1 = q1.x() - q2.x(), dx2 = q3.x() - q2.x(), dy1 = q1.y() - q2.y(), dy2 = q3.y() - q2.y();
+  const double den = dx1 * dy2 - dx2 * dy1;
+  if (!(std::abs(den) > 1e-12 * (dx1 * dx1 + dx2 * dx2 + dy1 * dy1 + dy2 * dy2))) return false;
+  const double g = (sx * dy2 - dx2 * sy) / den, h = (dx1 * sy - sx * dy1) / den;
+  M << q1.x() - q0.x() + g * q1.x(), q3.x() - q0.x() + h * q3.x(), q0.x(),  //
+      q1.y() - q0.y() + g * q1.y(), q3.y() - q0.y() + h * q3.y(), q0.y(),   //
+      g, h, 1.0;
+  return true;
+}
+
+// Exact homography through four pairs (the RANSAC hypothesis):
+// to ~ S_to S_from^-1 from, with S the square-to-quad maps.
+bool four_point_homography(const Points2& from, const Points2& to, const std::array<int, 4>& s, Matrix3d& G) {
+  Matrix3d Sf, St;
+  if (!square_to_quad(from[s[0]], from[s[1]], from[s[2]], from[s[3]], Sf) ||
+      !square_to_quad(to[s[0]], to[s[1]], to[s[2]], to[s[3]], St))
+    return false;
+  G = St * Sf.inverse();
+  if (!G.allFinite() || std::abs(G(2, 2)) < 1e-14 * G.norm()) return false;
+  G /= G(2, 2);
+  return true;
 }
 
 }  // namespace
@@ -167,6 +220,10 @@ HomographyFit fit_homography_robust(const Points2& from, const Points2& to, cons
   std::uniform_int_distribution<int> pick(0, n - 1);
   int needed = params.max_iterations;
   bool any_sample = false;
+  std::vector<uint8_t> trial(from.size());
+  best.inliers.assign(from.size(), 0);
+  best.num_inliers = 0;
+  double best_sum = 0.0;
   for (int it = 0; it < std::min(needed, params.max_iterations); ++it) {
     std::array<int, 4> s{};
     for (int k = 0; k < 4; ++k) {
@@ -177,15 +234,18 @@ HomographyFit fit_homography_robust(const Points2& from, const Points2& to, cons
     }
     if (minimal_sample_degenerate(from, s) || minimal_sample_degenerate(to, s)) continue;
     Matrix3d G;
-    if (dlt(from, to, {s[0], s[1], s[2], s[3]}, G) != Status::kOk) continue;
+    if (!four_point_homography(from, to, s, G)) continue;
     any_sample = true;
-    HomographyFit trial;
-    trial.G = G;
-    score(G, from, to, params.threshold_px, trial);
-    if (trial.num_inliers > best.num_inliers ||
-        (trial.num_inliers == best.num_inliers && trial.rms_error_px < best.rms_error_px)) {
-      best = trial;
-      const double w = static_cast<double>(best.num_inliers) / n;
+    double sum = 0.0;
+    const int count = score(G, from, to, params.threshold_px, trial, sum);
+    // More inliers, or as many with a smaller summed error (same count: same rms order).
+    if (count > best.num_inliers || (count == best.num_inliers && count > 0 && sum < best_sum)) {
+      best.G = G;
+      best.num_inliers = count;
+      best_sum = sum;
+      best.inliers.swap(trial);
+      trial.resize(from.size());
+      const double w = static_cast<double>(count) / n;
       const double p_fail = 1.0 - std::pow(w, 4);
       if (p_fail <= 1e-12) {
         needed = 0;
@@ -194,6 +254,7 @@ HomographyFit fit_homography_robust(const Points2& from, const Points2& to, cons
       }
     }
   }
+  best.rms_error_px = best.num_inliers > 0 ? std::sqrt(best_sum / best.num_inliers) : 0.0;
   if (!any_sample) {
     best.status = Status::kDegenerate;
     return best;
@@ -217,7 +278,9 @@ HomographyFit fit_homography_robust(const Points2& from, const Points2& to, cons
     refined.G = G;
     score(G, from, to, params.threshold_px, refined);
     if (refined.num_inliers < 4) break;
+    const bool same_set = refined.inliers == best.inliers;
     best = refined;
+    if (same_set) break;  // a second refit on the same pairs would give the same G
   }
   best.status = Status::kOk;
   return best;
