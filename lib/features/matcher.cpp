@@ -1,8 +1,11 @@
 #include "features/matcher.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
+#include "features/corners.hpp"
+#include "features/simd.hpp"
 #include "geometry/homography.hpp"
 
 namespace harvest::features {
@@ -51,6 +54,60 @@ cv::Matx33d to_cv(const Eigen::Matrix3d& G) {
   return M;
 }
 
+// Brute-force Hamming matching of 32-byte descriptors (ORB) in one pass over
+// all pairs: for every desired descriptor the best and second-best current
+// one (ratio test), for every current descriptor the best desired one
+// (mutual check). Ties keep the lower index. Popcount is one instruction in
+// the AVX2 build (the portable build counts bits in software).
+struct Nearest {
+  std::vector<int> best, second_dist, best_dist;  // per desired row
+  std::vector<int> back;                          // per current row: best desired row
+};
+HARVEST_SIMD_INLINE void hamming_nearest_impl(const uint8_t* d, int nd, const uint8_t* c, int nc, Nearest& out) {
+  out.best.assign(static_cast<std::size_t>(nd), -1);
+  out.best_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
+  out.second_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
+  out.back.assign(static_cast<std::size_t>(nc), -1);
+  std::vector<int> back_dist(static_cast<std::size_t>(nc), 1 << 20);
+  for (int i = 0; i < nd; ++i) {
+    uint64_t a[4];
+    std::memcpy(a, d + 32 * static_cast<std::size_t>(i), 32);
+    int b1 = 1 << 20, b2 = 1 << 20, bi = -1;
+    for (int j = 0; j < nc; ++j) {
+      uint64_t b[4];
+      std::memcpy(b, c + 32 * static_cast<std::size_t>(j), 32);
+      const int dist = __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
+                       __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
+      if (dist < b1) {
+        b2 = b1;
+        b1 = dist;
+        bi = j;
+      } else if (dist < b2) {
+        b2 = dist;
+      }
+      if (dist < back_dist[static_cast<std::size_t>(j)]) {
+        back_dist[static_cast<std::size_t>(j)] = dist;
+        out.back[static_cast<std::size_t>(j)] = i;
+      }
+    }
+    out.best[static_cast<std::size_t>(i)] = bi;
+    out.best_dist[static_cast<std::size_t>(i)] = b1;
+    out.second_dist[static_cast<std::size_t>(i)] = b2;
+  }
+}
+HARVEST_SIMD_DISPATCH(hamming_nearest, hamming_nearest_impl, void,
+                      (const uint8_t* d, int nd, const uint8_t* c, int nc, Nearest& out), (d, nd, c, nc, out))
+
+// Margin around the followed corners so their windows stay inside the box
+// at every pyramid level.
+int box_margin(const MatcherParams& p) { return (p.refine_lk.window / 2 + 3) << std::max(p.track_levels - 1, 0); }
+
+LkParams track_lk_params(const MatcherParams& p) {
+  LkParams lp = p.refine_lk;
+  lp.levels = std::max(p.track_levels, 1);
+  return lp;
+}
+
 }  // namespace
 
 DesiredImageMatcher::DesiredImageMatcher(MatcherParams params) : params_(std::move(params)) {
@@ -65,9 +122,107 @@ void DesiredImageMatcher::set_desired(const cv::Mat1b& gray, const cv::Rect& reg
   desired_desc_.release();
   orb_->detectAndCompute(desired_, region_mask(gray.size(), region), desired_kp_, desired_desc_);
   desired_pyr_ = params_.refine ? Pyramid(desired_, params_.refine_lk.levels) : Pyramid();
+  last_G_.reset();
+  corners_.clear();
+  box_ = {};
+  box_pyr_ = Pyramid();
+  if (!params_.track) return;
+  CornerParams cp;
+  cp.window = 7;
+  cp.min_eigenvalue = 0;
+  cp.quality_level = 0.01;
+  cp.min_distance = 8;
+  cp.max_corners = params_.track_corners;
+  cp.border = params_.refine_lk.window / 2 + 2;
+  for (const auto& c : detect_corners(desired_, cp, region)) corners_.push_back(c.pt);
+  if (corners_.empty()) return;
+  const cv::Rect hull = cv::boundingRect(corners_);
+  const int m = box_margin(params_);
+  box_ = cv::Rect(hull.x - m, hull.y - m, hull.width + 2 * m, hull.height + 2 * m) &
+         cv::Rect(0, 0, desired_.cols, desired_.rows);
+  box_pyr_ = Pyramid(desired_(box_).clone(), std::max(params_.track_levels, 1));
 }
 
-MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect& region) const {
+MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect& region) {
+  MatchResult r;
+  if (last_G_ && params_.track && !corners_.empty()) {
+    r = track(current, region, *last_G_);
+    if (r.ok()) {
+      last_G_ = r.G;
+      return r;
+    }
+  }
+  r = detect(current, region);
+  if (r.ok())
+    last_G_ = r.G;
+  else
+    last_G_.reset();
+  return r;
+}
+
+MatchResult DesiredImageMatcher::track(const cv::Mat1b& current, const cv::Rect& region, const cv::Matx33d& G) const {
+  MatchResult r;
+  r.tracked = true;
+  // The box of the desired image, seen in the current image through G
+  // (box pixel -> desired pixel -> current pixel).
+  const cv::Matx33d to_current = G * cv::Matx33d(1, 0, box_.x, 0, 1, box_.y, 0, 0, 1);
+  cv::Mat1b warped;
+  cv::warpPerspective(current, warped, cv::Mat(to_current), box_.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, 0);
+  const LkParams lp = track_lk_params(params_);
+  const Pyramid wp(warped, lp.levels);
+  std::vector<cv::Point2f> local(corners_.size());
+  for (std::size_t i = 0; i < corners_.size(); ++i) local[i] = corners_[i] - cv::Point2f(box_.tl());
+  const auto res = track_lk(box_pyr_, wp, local, lp);
+  std::vector<cv::Point2f> cand_d, cand_c;
+  for (std::size_t i = 0; i < corners_.size(); ++i) {
+    if (!res[i].found) continue;
+    const cv::Point2f c = apply(to_current, res[i].pt);
+    if (region.area() > 0 && !region.contains(cv::Point(cvFloor(c.x), cvFloor(c.y)))) continue;
+    cand_d.push_back(corners_[i]);
+    cand_c.push_back(c);
+  }
+  r.num_candidates = static_cast<int>(cand_d.size());
+  const int need =
+      std::max(params_.min_inliers,
+               static_cast<int>(std::ceil(params_.track_min_fraction * static_cast<double>(corners_.size()))));
+  if (r.num_candidates < need) {
+    r.status = MatchStatus::kTooFew;
+    r.text = std::to_string(r.num_candidates) + " of " + std::to_string(corners_.size()) + " corners followed";
+    return r;
+  }
+  geo::RansacParams rp;
+  rp.threshold_px = params_.ransac_threshold_px;
+  rp.max_iterations = params_.ransac_iterations;
+  rp.seed = params_.seed;
+  const auto fit = geo::fit_homography_robust(to_eigen(cand_d), to_eigen(cand_c), rp);
+  if (!fit.ok() || fit.num_inliers < need) {
+    r.status = fit.status == geo::Status::kDegenerate ? MatchStatus::kDegenerate : MatchStatus::kTooFew;
+    r.text = std::to_string(fit.num_inliers) + " of " + std::to_string(corners_.size()) +
+             " followed corners consistent with one homography";
+    return r;
+  }
+  std::vector<cv::Point2f> out_d, out_c;
+  for (std::size_t i = 0; i < cand_d.size(); ++i) {
+    if (fit.inliers[i]) {
+      r.desired.push_back(cand_d[i]);
+      r.current.push_back(cand_c[i]);
+    } else {
+      out_d.push_back(cand_d[i]);
+      out_c.push_back(cand_c[i]);
+    }
+  }
+  r.status = MatchStatus::kOk;
+  r.num_inliers = fit.num_inliers;
+  r.rms_px = fit.rms_error_px;
+  r.G = to_cv(fit.G);
+  r.text = std::to_string(r.num_inliers) + " of " + std::to_string(corners_.size()) + " corners followed and verified";
+  r.desired.insert(r.desired.end(), out_d.begin(), out_d.end());
+  r.current.insert(r.current.end(), out_c.begin(), out_c.end());
+  return r;
+}
+
+MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect& region) const {
   MatchResult r;
   if (desired_.empty()) {
     r.status = MatchStatus::kNoDesired;
@@ -79,22 +234,18 @@ MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect&
   orb_->detectAndCompute(current, region_mask(current.size(), region), kp, desc);
   std::vector<cv::Point2f> cand_d, cand_c;
   if (!desc.empty() && !desired_desc_.empty()) {
-    cv::BFMatcher bf(cv::NORM_HAMMING);
-    std::vector<std::vector<cv::DMatch>> fwd;
-    bf.knnMatch(desired_desc_, desc, fwd, 2);
-    std::vector<int> back;
-    if (params_.mutual) {
-      std::vector<cv::DMatch> bwd;
-      bf.match(desc, desired_desc_, bwd);
-      back.assign(kp.size(), -1);
-      for (const auto& m : bwd) back[static_cast<std::size_t>(m.queryIdx)] = m.trainIdx;
-    }
-    for (const auto& m : fwd) {
-      if (m.empty()) continue;
-      if (m.size() > 1 && m[0].distance >= params_.ratio * m[1].distance) continue;
-      if (params_.mutual && back[static_cast<std::size_t>(m[0].trainIdx)] != m[0].queryIdx) continue;
-      cand_d.push_back(desired_kp_[static_cast<std::size_t>(m[0].queryIdx)].pt);
-      cand_c.push_back(kp[static_cast<std::size_t>(m[0].trainIdx)].pt);
+    CV_Assert(desc.type() == CV_8U && desc.cols == 32 && desired_desc_.cols == 32 && desc.isContinuous() &&
+              desired_desc_.isContinuous());
+    Nearest nn;
+    hamming_nearest(true, desired_desc_.ptr<uint8_t>(), desired_desc_.rows, desc.ptr<uint8_t>(), desc.rows, nn);
+    for (int i = 0; i < desired_desc_.rows; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      const int j = nn.best[k];
+      if (j < 0) continue;
+      if (desc.rows > 1 && nn.best_dist[k] >= params_.ratio * nn.second_dist[k]) continue;
+      if (params_.mutual && nn.back[static_cast<std::size_t>(j)] != i) continue;
+      cand_d.push_back(desired_kp_[k].pt);
+      cand_c.push_back(kp[static_cast<std::size_t>(j)].pt);
     }
   }
   r.num_candidates = static_cast<int>(cand_d.size());

@@ -11,6 +11,13 @@
 //    desired image with the homography, the desired inliers are tracked into
 //    it with our pyramidal Lucas-Kanade, mapped back, and the homography is
 //    refitted.
+// 4. Frame to frame (`track`): once a frame is verified, the next one is not
+//    detected afresh. The desired image's Shi-Tomasi corners are followed
+//    into it instead: the new image is warped into the desired one with the
+//    last homography, the corners are tracked into the warp with pyramidal
+//    Lucas-Kanade (templates always from the desired image, so nothing
+//    drifts), mapped back and verified with RANSAC. When too few of them
+//    verify, the same frame is detected afresh (steps 1-3).
 // Fewer than four consistent matches is an explicit status (kTooFew): it is
 // what the thesis found on natural, untextured fruit.
 #pragma once
@@ -18,6 +25,7 @@
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +49,10 @@ struct MatcherParams {
   bool refine = true;  // sub-pixel refinement with Lucas-Kanade
   LkParams refine_lk{15, 1, 20, 0.01, 1e-3};
   double refine_max_shift_px = 2.0;  // a refined point moving more than this is dropped
+  bool track = true;                 // follow the desired corners frame to frame after a verified frame
+  int track_corners = 200;           // Shi-Tomasi corners of the desired image (its region) that are followed
+  int track_levels = 3;              // pyramid levels for the motion between two frames
+  double track_min_fraction = 0.5;   // fewer of the corners verified: detect afresh
 };
 
 enum class MatchStatus : int8_t { kOk = 0, kTooFew = 1, kNoDesired = 2, kDegenerate = 3 };
@@ -56,26 +68,43 @@ struct MatchResult {
   int num_candidates = 0;              // descriptor matches before verification
   cv::Matx33d G = cv::Matx33d::eye();  // desired -> current, valid when status is kOk
   double rms_px = 0;
+  bool tracked = false;  // from the previous frame's homography (step 4), not detected afresh
   bool ok() const { return status == MatchStatus::kOk; }
 };
 
 class DesiredImageMatcher {
  public:
   explicit DesiredImageMatcher(MatcherParams params);
-  // The desired image; `region` (empty = whole image) limits its keypoints.
+  // The desired image; `region` (empty = whole image) limits its keypoints
+  // and corners. Starts afresh: the next match is detected.
   void set_desired(const cv::Mat1b& gray, const cv::Rect& region = {});
   bool has_desired() const { return !desired_.empty(); }
   int desired_keypoints() const { return static_cast<int>(desired_kp_.size()); }
-  MatchResult match(const cv::Mat1b& current, const cv::Rect& region = {}) const;
+  int desired_corners() const { return static_cast<int>(corners_.size()); }
+  // Matches one frame of a sequence. `region` (empty = whole image) limits
+  // where current points may be. The result depends on the frames before
+  // (step 4): the same sequence gives the same results.
+  MatchResult match(const cv::Mat1b& current, const cv::Rect& region = {});
+  // Forget the previous frame: the next match is detected afresh.
+  void reset_tracking() { last_G_.reset(); }
   const MatcherParams& params() const { return params_; }
 
  private:
+  MatchResult detect(const cv::Mat1b& current, const cv::Rect& region) const;
+  MatchResult track(const cv::Mat1b& current, const cv::Rect& region, const cv::Matx33d& G) const;
+
   MatcherParams params_;
   cv::Ptr<cv::ORB> orb_;
   cv::Mat1b desired_;
   Pyramid desired_pyr_;
   std::vector<cv::KeyPoint> desired_kp_;
   cv::Mat desired_desc_;
+  // Step 4: the followed corners, the box of the desired image around them
+  // (with room for the tracking windows) and its pyramid.
+  std::vector<cv::Point2f> corners_;
+  cv::Rect box_;
+  Pyramid box_pyr_;
+  std::optional<cv::Matx33d> last_G_;  // desired -> current of the last verified frame
 };
 
 }  // namespace harvest::features

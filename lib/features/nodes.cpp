@@ -47,6 +47,10 @@ MatcherParams matcher_params_from_yaml(const config::Node& n) {
   p.refine_lk.window = n.get("refine_window", p.refine_lk.window, {3, 63});
   if (p.refine_lk.window % 2 == 0) n.fail("refine_window", "an odd number of pixels");
   p.refine_max_shift_px = n.get("refine_max_shift_px", p.refine_max_shift_px, {0.01, 100.0});
+  p.track = n.get("track", p.track);
+  p.track_corners = n.get("track_corners", p.track_corners, {8, 10000});
+  p.track_levels = n.get("track_levels", p.track_levels, {1, 6});
+  p.track_min_fraction = n.get("track_min_fraction", p.track_min_fraction, {0.0, 1.0});
   return p;
 }
 
@@ -191,6 +195,7 @@ void FeatureTrackerNode::on_image(const image_t& image) {
   publish(config_.matches_channel, out);
   if (m.ok()) {
     count("matched_frames");
+    if (m.tracked) count("tracked_frames");
     set_health(rt::Health::kOk, std::to_string(tracks.num_features) + " features, " + m.text);
   } else {
     count(m.status == MatchStatus::kNoDesired ? "frames_without_desired" : "frames_too_few_matches");

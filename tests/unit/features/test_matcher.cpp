@@ -113,12 +113,64 @@ TEST(Matcher, UnrelatedImagesAreNotMatched) {
 TEST(Matcher, DeterministicForTheSameInput) {
   const cv::Mat1b tex = ft::sticker_texture(400, 8);
   const cv::Size size(320, 240);
-  f::DesiredImageMatcher m({});
-  m.set_desired(ft::render_plane(tex, placement(0.55, 0, 50, 10), size));
+  const cv::Mat1b desired = ft::render_plane(tex, placement(0.55, 0, 50, 10), size);
   const cv::Mat1b cur = ft::render_plane(tex, placement(0.5, 0.2, 70, 5), size, 90, 2.0, 3);
-  const auto a = m.match(cur), b = m.match(cur);
+  const cv::Mat1b next = ft::render_plane(tex, placement(0.51, 0.19, 72, 5), size, 90, 2.0, 4);
+  // Two matchers fed the same sequence answer the same, frame by frame.
+  f::DesiredImageMatcher m({}), n({});
+  m.set_desired(desired);
+  n.set_desired(desired);
+  for (const cv::Mat1b* img : {&cur, &next, &next}) {
+    const auto a = m.match(*img), b = n.match(*img);
+    ASSERT_TRUE(a.ok());
+    EXPECT_EQ(a.tracked, b.tracked);
+    EXPECT_EQ(a.num_inliers, b.num_inliers);
+    EXPECT_EQ(a.current, b.current);
+    EXPECT_EQ(cv::norm(cv::Mat(a.G), cv::Mat(b.G)), 0.0);
+  }
+  // Without frame-to-frame tracking every frame is detected: the same frame twice, the same answer.
+  f::MatcherParams p;
+  p.track = false;
+  f::DesiredImageMatcher d(p);
+  d.set_desired(desired);
+  const auto a = d.match(cur), b = d.match(cur);
   ASSERT_TRUE(a.ok());
-  EXPECT_EQ(a.num_inliers, b.num_inliers);
+  EXPECT_FALSE(b.tracked);
   EXPECT_EQ(a.current, b.current);
   EXPECT_EQ(cv::norm(cv::Mat(a.G), cv::Mat(b.G)), 0.0);
+}
+
+TEST(Matcher, FollowsAnApproachFrameToFrameAndFallsBackToDetection) {
+  // The camera-in-hand closes on the sticker over 30 frames: the first is
+  // detected, the others followed from the previous homography (step 4), as
+  // accurate as the refined detection.
+  const cv::Mat1b tex = ft::sticker_texture(400, 9);
+  const cv::Size size(320, 240);
+  const cv::Matx33d Hd = placement(0.55, 0.0, 50, 10);
+  f::DesiredImageMatcher m({});
+  m.set_desired(ft::render_plane(tex, Hd, size, 90, 1.0, 1));
+  ASSERT_GT(m.desired_corners(), 100);
+  double worst = 0;
+  int tracked = 0;
+  for (int k = 0; k < 30; ++k) {
+    const double t = k / 29.0;
+    const cv::Matx33d Hc = placement(0.45 + 0.12 * t, 0.25 * (1 - t), 70 - 15 * t, 5 + 6 * t, 2e-4 * (1 - t));
+    const auto r = m.match(ft::render_plane(tex, Hc, size, 90, 1.0, static_cast<uint64_t>(k + 2)));
+    ASSERT_TRUE(r.ok()) << k << ": " << r.text;
+    EXPECT_EQ(r.tracked, k > 0) << k;
+    tracked += r.tracked;
+    worst = std::max(worst, transfer_rms(r.G, Hc * Hd.inv(), size));
+  }
+  std::printf("approach: %d of 30 frames followed, worst homography transfer rms %.3f px\n", tracked, worst);
+  EXPECT_LT(worst, 0.1);
+  // A jump beyond what tracking follows: the same frame is detected afresh.
+  const cv::Matx33d far = placement(0.5, -0.3, 90, 0);
+  const auto jump = m.match(ft::render_plane(tex, far, size, 90, 1.0, 40));
+  ASSERT_TRUE(jump.ok()) << jump.text;
+  EXPECT_FALSE(jump.tracked);
+  EXPECT_LT(transfer_rms(jump.G, far * Hd.inv(), size), 0.1);
+  // Another texture: neither followed nor detected.
+  const auto other = m.match(ft::render_plane(ft::sticker_texture(400, 10), far, size, 90, 1.0, 41));
+  EXPECT_EQ(other.status, f::MatchStatus::kTooFew) << other.text;
+  EXPECT_FALSE(other.ok());
 }
