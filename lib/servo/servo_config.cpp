@@ -95,6 +95,9 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.ir_vision_agreement = n.get("ir_vision_agreement", c.ir_vision_agreement, nonneg);
   c.front_fruit_tolerance = n.get("front_fruit_tolerance", c.front_fruit_tolerance, nonneg);
   c.grasp_advance = n.get("grasp_advance", c.grasp_advance, {0.0, 0.05});
+  c.ir_fold_near = n.get("ir_fold_near", c.ir_fold_near, {0.0, 0.5});
+  c.ir_fold_jump = n.get("ir_fold_jump", c.ir_fold_jump, {1e-3, 1.0});
+  c.ir_progress_step = n.get("ir_progress_step", c.ir_progress_step, {1e-4, 0.1});
   c.ir_attempts = n.get("ir_attempts", c.ir_attempts, {1, 10});
   c.orient_tolerance = n.get("orient_tolerance", c.orient_tolerance, pos);
   c.position_tolerance = n.get("position_tolerance", c.position_tolerance, pos);
@@ -113,6 +116,15 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.same_fruit_distance = n.get("same_fruit_distance", c.same_fruit_distance, nonneg);
   c.same_sight_angle = n.get("same_sight_angle", c.same_sight_angle, {0.0, 0.5});
   c.reused_id_distance = n.get("reused_id_distance", c.reused_id_distance, nonneg);
+  c.size_agreement = n.get("size_agreement", c.size_agreement, {0.0, 10.0});
+  c.size_agreement_min = n.get("size_agreement_min", c.size_agreement_min, {0.0, 10.0});
+  c.fills_view = n.get("fills_view", c.fills_view, {0.1, 1.0});
+  c.front_fruit_size_ratio = n.get("front_fruit_size_ratio", c.front_fruit_size_ratio, {1.0, 10.0});
+  c.whole_fruit_border_px = n.get("whole_fruit_border_px", c.whole_fruit_border_px, {0, 100});
+  c.goal_progress_step = n.get("goal_progress_step", c.goal_progress_step, {1e-5, 0.1});
+  c.goal_progress_angle = n.get("goal_progress_angle", c.goal_progress_angle, {1e-5, 0.5});
+  c.in_view_margin = n.get("in_view_margin", c.in_view_margin, {0.0, 0.49});
+  c.sight_aim_margin = n.get("sight_aim_margin", c.sight_aim_margin, {0.0, 0.5});
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
   if (c.ir_min_speed > c.ir_approach_speed) n.fail("ir_min_speed", "a speed no greater than ir_approach_speed");

@@ -90,6 +90,11 @@ struct ServoConfig {
   // [m] the arm goes on this far along the tool axis (at ir_min_speed) while
   // the gripper closes, then stops (0: stops at once, as the thesis does)
   double grasp_advance = 0.015;
+  // A reading within ir_fold_near above the grasp range followed by one
+  // ir_fold_jump farther is the sensor folding back (the fruit is inside).
+  double ir_fold_near = 0.02;         // [m]
+  double ir_fold_jump = 0.03;         // [m]
+  double ir_progress_step = 0.005;    // [m] under IR guidance, less tool motion than this for timeouts.stall: blocked
   int ir_attempts = 2;                // IR approaches per fruit (thesis: retry once)
   double orient_tolerance = 0.02;     // [rad] orientation reached
   double position_tolerance = 0.005;  // [m] pose goal reached
@@ -117,6 +122,26 @@ struct ServoConfig {
   double same_fruit_distance = 0.05;     // [m] a fixed-camera target this close to a given-up one is that fruit
   double same_sight_angle = 0.02;        // [rad] ... or, with a doubtful depth, its line of sight this close to one
   double reused_id_distance = 0.15;      // [m] a finished id seen this far from where it finished is another fruit
+  // A size-based hand estimate agrees with the rays' crossing within
+  // size_agreement of the range (at least size_agreement_min): the hand
+  // depth's own error is about 10 % rms, a leaf-cut fruit's a factor of 1.5.
+  double size_agreement = 0.3;
+  double size_agreement_min = 0.1;  // [m]
+  // A hand detection at least fills_view of the image height fills the view:
+  // no depth from its size; and, front_fruit_size_ratio times the size the
+  // current fruit should have and covering the image centre, it is a nearer
+  // fruit in front of it.
+  double fills_view = 0.8;
+  double front_fruit_size_ratio = 1.5;
+  int whole_fruit_border_px = 2;  // [px] a detection this near the image border is cut by it: no depth from its size
+  // A pose-goal motion progresses by getting goal_progress_step or
+  // goal_progress_angle nearer its goal (timeouts.stall without: blocked).
+  double goal_progress_step = 0.002;  // [m]
+  double goal_progress_angle = 0.01;  // [rad]
+  // An ORIENT blocked with the estimate this far (share of each image side)
+  // inside the hand image goes on to ACQUIRE from where it stopped.
+  double in_view_margin = 0.2;
+  double sight_aim_margin = 0.07;  // [rad] aiming along a line of sight: the hand camera's half field of view less this
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();

@@ -1,0 +1,66 @@
+// Where the gripper goes to see and reach a fruit: the pickable set, the
+// fixed camera's line of sight through a target, the ORIENT goals (turn in
+// place, eq. 6-19..6-22, or a viewpoint), the way back out of the canopy.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+
+#include "harvest/targets_t.hpp"
+#include "servo/harvest/fruit.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+// A position a fruit can be picked at: inside the workspace and
+// min_ahead_of_home ahead of the gripper at home (every fruit is aimed at
+// from there).
+bool pickable(const ServoConfig& cfg, const Eigen::Vector3d& p);
+
+// The pickable part of the fixed camera's line of sight through `t`;
+// nullopt if the view carries no camera pose or no part is pickable.
+std::optional<SightLine> sight_line(const ServoConfig& cfg, const targets_t& view, const target_t& t);
+
+// Where to aim, from `from`, at a fruit somewhere on a sight line: the
+// stretch of line the camera-in-hand sees at once (its narrower half field
+// of view less sight_aim_margin, on each side), starting at parameter
+// `s_start` (the end nearest the fixed camera's estimate), aimed at its
+// middle direction. Returns a point of the line.
+Eigen::Vector3d sight_aim(const ServoConfig& cfg, const SightLine& line, double s_start, const Eigen::Vector3d& from);
+
+// ORIENT in place: the tool where it is, its axis turned to `target` (eq. 6-19..6-22).
+Eigen::Isometry3d aim_in_place(const Eigen::Isometry3d& tool, const Eigen::Vector3d& target);
+
+// ORIENT's goal for a fruit at `target` with the tool (at home) at `tool`:
+// from its viewpoint if it lies more than max_aim_angle off the gripper axis
+// or `from_viewpoint` asks for it (the turn in place was blocked), where
+// there is one; else the turn in place. `from_viewpoint` says which.
+struct OrientGoal {
+  Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
+  bool from_viewpoint = false;
+};
+OrientGoal orient_goal(const ServoConfig& cfg, const Eigen::Isometry3d& tool, const Eigen::Vector3d& target,
+                       bool from_viewpoint);
+
+// ORIENT from a viewpoint: view_distance short of `target`, along the home
+// axis turned view_angle toward it, aimed at it; nullopt if viewpoints are
+// off, the target is straight ahead, or the viewpoint lies outside the workspace.
+std::optional<Eigen::Isometry3d> aim_from_viewpoint(const ServoConfig& cfg, const Eigen::Vector3d& target);
+
+// The tool moved straight back along its axis, in its orientation: to
+// abreast of `abreast_of` (if given) or by `at_least`, whichever is
+// farther. The palm retraces the way the gripper came in; a straight line
+// to an earlier point cuts sideways through neighbouring fruit.
+Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
+                                  double at_least);
+
+// A goal outside the workspace pulled back along the straight line from
+// `from` to the furthest point still inside (the goal itself if inside).
+Eigen::Isometry3d inside_workspace(const Workspace& ws, const Eigen::Vector3d& from, const Eigen::Isometry3d& goal);
+
+// `point` projects into the hand camera at `camera` with a margin of
+// `margin` (a share of the image side) left on every side.
+bool in_hand_view(const CameraIntrinsics& k, const Eigen::Isometry3d& camera, const Eigen::Vector3d& point,
+                  double margin);
+
+}  // namespace harvest::servo

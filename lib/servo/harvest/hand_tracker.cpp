@@ -1,0 +1,144 @@
+#include "servo/harvest/hand_tracker.hpp"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "servo/geometry.hpp"
+
+namespace harvest::servo {
+
+std::optional<PixelMeasurement> HandTracker::fresh(rt::Micros now) const {
+  if (pixel_ && now - pixel_rx_ <= rt::from_seconds(cfg_.timeouts.lost)) return pixel_;
+  return std::nullopt;
+}
+
+std::optional<double> HandTracker::fruit_in_front(rt::Micros now) const {
+  if (fruit_fills_view_rx_ != 0 && now - fruit_fills_view_rx_ <= rt::from_seconds(cfg_.timeouts.lost))
+    return fruit_in_front_offset_;
+  return std::nullopt;
+}
+
+void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
+                                rt::Micros now) {
+  const CameraIntrinsics& k = cfg_.hand_camera;
+  // A fruit filling the image where the gripper axis (the optical axis) meets
+  // it, and far larger than the current fruit looks at its estimated depth:
+  // a fruit nearer than it, so what the IR reads right in front of the
+  // gripper is that fruit, not a leaf (see the leaf rule in IrGuidance).
+  const double depth = (camera.inverse() * fruit.estimate).z();
+  const double expected_px = depth > 0.01 ? k.fx * fruit.diameter / depth : 0.0;
+  for (const auto& f : msg.fruits) {
+    const auto& b = f.bbox_px;
+    if (f.diameter_px >= cfg_.fills_view * msg.image_height &&
+        f.diameter_px > cfg_.front_fruit_size_ratio * expected_px && b[0] <= k.u0 && k.u0 <= b[0] + b[2] &&
+        b[1] <= k.v0 && k.v0 <= b[1] + b[3]) {
+      fruit_fills_view_rx_ = now;
+      // How far its centre lies off the gripper axis [m]: the pixel offset in
+      // its own apparent diameters, times the (statistical) fruit diameter.
+      fruit_in_front_offset_ =
+          std::hypot(f.u_px - k.u0, f.v_px - k.v0) / std::max(1.0f, f.diameter_px) * fruit.diameter;
+    }
+  }
+  // Where the current fruit is in this image: near our last centroid while
+  // we follow it; else on the image of the fixed camera's line of sight
+  // while its depth is doubtful (nearest the aim point among equals); else
+  // at the hand target the reconstructor matched to the fruit in 3D; else at
+  // the projected estimate.
+  Eigen::Vector2d predicted;
+  std::vector<Eigen::Vector2d> sight_px;
+  const rt::Micros recent = rt::from_seconds(cfg_.timeouts.lost);
+  const bool doubtful = fruit.depth_doubtful && fruit.sight;
+  bool have_point = true;
+  if (pixel_ && now - pixel_rx_ <= recent) {
+    predicted = {pixel_->u, pixel_->v};
+  } else if (!doubtful && hand_target_px_ && now - hand_target_rx_ <= recent) {
+    predicted = *hand_target_px_;
+  } else {
+    have_point = project_point(k, camera.inverse() * fruit.estimate, predicted);
+    if (fruit.sight) {
+      const SightLine& l = *fruit.sight;
+      sight_px = project_segment(k, camera, l.at(l.near), l.at(l.far));
+    }
+    if (sight_px.empty() && !have_point) return;
+  }
+  // Gate on the distance to the image of the fixed camera's line of sight
+  // (or to the point); among detections near the line, the distance to the
+  // predicted point decides too: a little for a doubtful depth, more for a
+  // plausible one. A neighbour nearer the point but off the line is another
+  // fruit at another depth.
+  const double tie_weight = doubtful ? 0.01 : 0.25;
+  double best = std::numeric_limits<double>::infinity();
+  const fruit_t* match = nullptr;
+  for (const auto& f : msg.fruits) {
+    const Eigen::Vector2d px(f.u_px, f.v_px);
+    const double to_point = have_point ? (px - predicted).norm() : 0.0;
+    const double d = sight_px.empty() ? to_point : distance_to_polyline(sight_px, px);
+    const double score = sight_px.empty() ? d : d + tie_weight * to_point;
+    if (d <= cfg_.association_gate_px && score < best) {
+      best = score;
+      match = &f;
+    }
+  }
+  if (match == nullptr) return;
+  pixel_ = PixelMeasurement{match->u_px, match->v_px, msg.header.utime};
+  pixel_rx_ = now;
+  // Whole: clear of the image border and not filling most of the image (near,
+  // under IR guidance): only then does its apparent size give a depth.
+  const int border = cfg_.whole_fruit_border_px;
+  const auto& b = match->bbox_px;
+  pixel_whole_ = b[0] >= border && b[1] >= border && b[0] + b[2] <= msg.image_width - border &&
+                 b[1] + b[3] <= msg.image_height - border && match->diameter_px <= cfg_.fills_view * msg.image_height;
+  pixel_crossing_ = pixel_whole_ ? cross(*pixel_, fruit, camera) : std::nullopt;
+}
+
+void HandTracker::on_hand_targets(const targets_t& msg, Fruit& fruit, const Eigen::Isometry3d& camera, rt::Micros now) {
+  // The camera-in-hand re-estimate replaces the fixed camera's (eq. 6-15).
+  // It is the target made from the very detection we follow (same image,
+  // same pixel), whatever id the reconstructor matched it to in 3D: its
+  // match against a fixed-camera estimate with a wrong depth would fail.
+  for (const auto& t : msg.targets) {
+    if (t.fruit_id != fruit.id) continue;
+    hand_target_px_ = Eigen::Vector2d(t.u_px, t.v_px);  // the next image's prediction, see on_detections
+    hand_target_rx_ = now;
+  }
+  // A fruit cut by the image border, or filling most of the image, has no
+  // apparent size to take a depth from: the estimate stays the last one that
+  // had (eq. 6-15).
+  if (!pixel_ || msg.header.utime != pixel_->utime || !pixel_whole_) return;
+  constexpr double kSamePixel = 0.5;  // [px] the reconstructor copies the detection's centroid
+  for (const auto& t : msg.targets) {
+    if ((Eigen::Vector2d(t.u_px, t.v_px) - Eigen::Vector2d(pixel_->u, pixel_->v)).norm() > kSamePixel) continue;
+    const Eigen::Vector3d sized(t.position_base[0], t.position_base[1], t.position_base[2]);
+    fruit.depth_doubtful = false;
+    fruit.estimate = sized;
+    fruit.depth = Fruit::Depth::kSize;
+    if (pixel_crossing_) {
+      // The size is the better depth near the fruit (its error shrinks with
+      // the distance, about 10 % rms; the crossing's stays that of the fixed
+      // calibration); the crossing catches a size gone grossly wrong: a leaf
+      // cutting the fruit makes it look small and far (a factor of 1.5 or more).
+      const double range = (*pixel_crossing_ - camera.translation()).norm();
+      const bool agrees =
+          (sized - *pixel_crossing_).norm() <= std::max(cfg_.size_agreement_min, cfg_.size_agreement * range);
+      fruit.estimate = agrees ? sized : *pixel_crossing_;
+      fruit.depth = agrees ? Fruit::Depth::kConfirmed : Fruit::Depth::kCrossing;
+    }
+    break;
+  }
+}
+
+std::optional<Eigen::Vector3d> HandTracker::cross(const PixelMeasurement& pixel, const Fruit& fruit,
+                                                  const Eigen::Isometry3d& cam) const {
+  if (cfg_.triangulation_gap <= 0.0 || !fruit.sight) return std::nullopt;
+  // The newest camera pose: within one image period of the image's, and the
+  // arm moves mostly along this very ray while approaching.
+  const Eigen::Vector2d xy = undistort_pixel(cfg_.hand_camera, pixel.u, pixel.v);
+  const Eigen::Vector3d ray = cam.rotation() * Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  const SightLine& l = *fruit.sight;
+  const auto c = cross_rays(cam.translation(), ray, l.origin, l.direction);
+  if (!c || c->gap > cfg_.triangulation_gap || c->angle < cfg_.min_triangulation_angle) return std::nullopt;
+  return c->point;
+}
+
+}  // namespace harvest::servo

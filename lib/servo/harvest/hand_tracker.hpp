@@ -1,0 +1,68 @@
+// Follows the current fruit in the camera-in-hand image: which detection is
+// it (association), is it whole (its apparent size gives a depth), where its
+// ray crosses the fixed camera's line of sight, and what the reconstructor's
+// hand target for it says (the new estimate, eq. 6-15). Also watches for a
+// nearer fruit filling the view on the gripper axis (the IR then reads that
+// fruit).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <utility>
+
+#include "harvest/fruit_detections_t.hpp"
+#include "harvest/targets_t.hpp"
+#include "runtime/clock.hpp"
+#include "servo/approach.hpp"
+#include "servo/harvest/fruit.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+class HandTracker {
+ public:
+  explicit HandTracker(ServoConfig config) : cfg_(std::move(config)) {}
+
+  // A new fruit (or none): forget the followed detection and the
+  // reconstructor's pixel for it.
+  void forget_fruit() {
+    pixel_.reset();
+    hand_target_px_.reset();
+  }
+
+  // A FRUIT_HAND message while following `fruit` from a camera at `camera`.
+  void on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
+                     rt::Micros now);
+  // A hand-camera TARGETS message: remembers the pixel of the target with the
+  // fruit's id, and re-estimates the fruit from the target made from the
+  // followed detection (same image, same pixel) if that detection was whole,
+  // checked against the rays' crossing.
+  void on_hand_targets(const targets_t& msg, Fruit& fruit, const Eigen::Isometry3d& camera, rt::Micros now);
+
+  // The followed centroid, if seen within timeouts.lost.
+  std::optional<PixelMeasurement> fresh(rt::Micros now) const;
+  // When the followed centroid was last updated (receive time).
+  rt::Micros seen_at() const { return pixel_rx_; }
+  // A fruit nearer than the current one filled the view on the gripper axis
+  // within timeouts.lost: how far its centre lies off the axis [m].
+  std::optional<double> fruit_in_front(rt::Micros now) const;
+
+ private:
+  // The current fruit where the camera-in-hand's ray through `pixel` crosses
+  // the fixed camera's line of sight; nullopt if they do not cross closely
+  // at a useful angle (another fruit, or a line of sight too poor).
+  std::optional<Eigen::Vector3d> cross(const PixelMeasurement& pixel, const Fruit& fruit,
+                                       const Eigen::Isometry3d& camera) const;
+
+  ServoConfig cfg_;
+  std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
+  rt::Micros pixel_rx_ = 0;
+  bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
+  std::optional<Eigen::Vector3d> pixel_crossing_;  // ... where its ray crosses the fixed camera's line of sight
+  rt::Micros fruit_fills_view_rx_ = 0;  // last hand image with a fruit filling it on the gripper axis (0: none)
+  double fruit_in_front_offset_ = 0.0;  // ... its centre's distance from the gripper axis [m]
+  std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
+  rt::Micros hand_target_rx_ = 0;
+};
+
+}  // namespace harvest::servo

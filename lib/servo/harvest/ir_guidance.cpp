@@ -1,0 +1,128 @@
+#include "servo/harvest/ir_guidance.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace harvest::servo {
+
+void IrGuidance::reset_attempt(const Eigen::Vector3d& tool, rt::Micros now) {
+  passing_leaf_ = false;
+  progress_at_ = now;
+  progress_from_ = tool;
+  folded_ = false;
+  last_near_.reset();
+}
+
+void IrGuidance::begin(const Eigen::Vector3d& tool, rt::Micros now) {
+  attempt_ = 1;
+  start_ = tool;
+  reset_attempt(tool, now);
+}
+
+void IrGuidance::retry(const Eigen::Vector3d& tool, rt::Micros now) {
+  ++attempt_;
+  reset_attempt(tool, now);
+}
+
+void IrGuidance::on_reading(const ir_range_t& msg, rt::Micros now, bool guiding) {
+  ir_ = msg;
+  ir_rx_ = now;
+  // A triangulating IR sensor folds back nearer than its peak: a fruit inside
+  // reads far. Moving forward, a reading just above the grasp range followed
+  // by one far beyond it is that fold-back (nothing on the axis jumps away),
+  // even if no sample fell inside the few millimetres of the grasp range.
+  if (!guiding || msg.validity != ir_range_t::VALID) return;
+  if (msg.range_m <= cfg_.ir_grasp_range + cfg_.ir_fold_near) {
+    last_near_ = msg.range_m;
+  } else if (last_near_ && msg.range_m > *last_near_ + cfg_.ir_fold_jump) {
+    folded_ = true;
+  }
+}
+
+double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit) const {
+  // Fast while far, then braking at a constant rate, so the arm reaches the
+  // grasp range slowly: the stop overshoots by v^2 / 2a plus the travel
+  // during one IR period. The IR range (palm to fruit surface) ends at the
+  // grasp range about 2 cm before the estimate (tool point to fruit centre)
+  // ends at zero, so the estimate is the longer of the two; it bounds the
+  // IR's: the sensor's fold-back makes a fruit nearer than its peak read far,
+  // and the arm must not speed up into it.
+  double to_go = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2));
+  if (ir_sees_fruit) to_go = std::min(to_go, static_cast<double>(ir_->range_m) - cfg_.ir_grasp_range);
+  return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, to_go)), cfg_.ir_min_speed,
+                    cfg_.ir_approach_speed);
+}
+
+IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit,
+                        std::optional<double> fruit_in_front) {
+  IrStep out;
+  const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
+  const bool at_grasp_range =
+      (ir_fresh && (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
+       ir_->range_m <= cfg_.ir_grasp_range) ||
+      folded_;
+  // Fruit centre ahead of the tool point by the camera-in-hand's estimate.
+  const double ahead = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2));
+  // The IR sees the first thing on its axis: a leaf in front of the fruit
+  // reads like the fruit. A reading at the grasp range while an estimate
+  // checked against the rays' crossing puts the fruit much farther is that
+  // leaf; the approach goes on past it. A depth from the apparent size alone
+  // can be decimetres off, so it never overrules the IR. Not when a fruit
+  // nearer than the one aimed at fills the hand image on the axis as the
+  // reading comes: then the IR reads that fruit, and pushing on would knock
+  // it off; the gripper closes on it instead.
+  const bool in_front = !passing_leaf_ && fruit_in_front.has_value();
+  const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && fruit.depth != Fruit::Depth::kSize &&
+                    ahead > cfg_.ir_vision_agreement && !in_front;
+  if (leaf) {  // the leaf, not the fruit
+    folded_ = false;
+    last_near_.reset();
+  }
+  if (leaf && !passing_leaf_) {
+    passing_leaf_ = true;
+    out.note = "IR at " + std::to_string(std::lround(ir_->range_m * 1000)) + " mm, fruit " +
+               std::to_string(std::lround(ahead * 1000)) + " mm ahead: past a leaf";
+  }
+  if (at_grasp_range && !leaf) {
+    // A fruit in front of the one aimed at, too far off the gripper axis to
+    // be captured: closing would knock it off with a finger, pushing on with
+    // the palm. Leave it for its own turn; this fruit is tried again after it.
+    if (in_front && *fruit_in_front > cfg_.front_fruit_tolerance) {
+      out.action = IrStep::Action::kFruitInTheWay;
+      out.offset = *fruit_in_front;
+    } else {
+      out.action = IrStep::Action::kClose;
+    }
+    return out;
+  }
+  // Progress is ir_progress_step of tool motion: a tool that makes none for
+  // timeouts.stall is blocked (the arm at the edge of its reach, a joint
+  // limit) and waits out nothing.
+  const Eigen::Vector3d p = tool.translation();
+  if ((p - progress_from_).norm() > cfg_.ir_progress_step) {
+    progress_from_ = p;
+    progress_at_ = now;
+  }
+  const bool blocked = now - progress_at_ > rt::from_seconds(cfg_.timeouts.stall);
+  if ((p - start_).norm() > cfg_.ir_max_travel || ahead < -cfg_.ir_overshoot || blocked) {
+    out.action = IrStep::Action::kGiveUp;
+    return out;
+  }
+  if (!ir_fresh) {
+    out.action = IrStep::Action::kHold;
+    return out;
+  }
+  out.action = IrStep::Action::kAdvance;
+  out.forward_speed = forward_speed(tool, fruit, ir_->validity == ir_range_t::VALID && !leaf);
+  return out;
+}
+
+std::optional<Twist> IrGuidance::grasp_twist(const Eigen::Isometry3d& tool) const {
+  const Eigen::Vector3d axis = tool.rotation().col(2);
+  if ((tool.translation() - grasp_from_).dot(axis) >= cfg_.grasp_advance) return std::nullopt;
+  Twist forward;
+  forward.linear = cfg_.ir_min_speed * axis;
+  return forward;
+}
+
+}  // namespace harvest::servo

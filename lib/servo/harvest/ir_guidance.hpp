@@ -1,0 +1,84 @@
+// IR_APPROACH, the last centimetres (thesis HarvestStep5): when the IR
+// reading says the fruit is inside the gripper, when a reading is a leaf in
+// front of the fruit, when a nearer fruit is in the way, how fast to go on,
+// and when an attempt has run out of travel or is blocked.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "harvest/ir_range_t.hpp"
+#include "runtime/clock.hpp"
+#include "servo/harvest/fruit.hpp"
+#include "servo/motion_limits.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+struct IrStep {
+  enum class Action {
+    kClose,          // the fruit is inside: STOP, close the gripper
+    kFruitInTheWay,  // a nearer fruit fills the view beside the axis: give this attempt up
+    kGiveUp,         // out of travel, past the fruit or blocked: as the IR timeout
+    kHold,           // no fresh IR reading: never advance blind
+    kAdvance,        // go on, centring, at forward_speed
+  } action = Action::kHold;
+  double forward_speed = 0.0;       // [m/s] kAdvance
+  double offset = 0.0;              // [m] kFruitInTheWay: the nearer fruit's centre off the gripper axis
+  std::optional<std::string> note;  // set once per attempt when going on past a leaf
+};
+
+class IrGuidance {
+ public:
+  explicit IrGuidance(ServoConfig config) : cfg_(std::move(config)) {}
+
+  // IR guidance begins with the tool at `tool` (first attempt) ...
+  void begin(const Eigen::Vector3d& tool, rt::Micros now);
+  // ... or begins again after a back-off (the travel still counts from where the first began).
+  void retry(const Eigen::Vector3d& tool, rt::Micros now);
+  int attempt() const { return attempt_; }
+  bool attempts_left() const { return attempt_ < cfg_.ir_attempts; }
+  // Where the first attempt began: a back-off retraces the tool axis to abreast of it.
+  const Eigen::Vector3d& start() const { return start_; }
+
+  // Every IR_RANGE message; `guiding`: the controller is in IR_APPROACH.
+  void on_reading(const ir_range_t& msg, rt::Micros now, bool guiding);
+
+  // One control step toward `fruit` with the tool at `tool`; `fruit_in_front`
+  // (from the hand tracker): a nearer fruit fills the view, its centre this
+  // far off the axis.
+  IrStep step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit, std::optional<double> fruit_in_front);
+
+  // The forward speed for the range still to go (the IR range if it sees the
+  // fruit, the estimate always): the speed from which braking at
+  // ir_braking_decel stops at the grasp range, in [ir_min_speed, ir_approach_speed].
+  double forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit) const;
+
+  // The gripper is told to close with the tool at `tool` ...
+  void closing_at(const Eigen::Vector3d& tool) { grasp_from_ = tool; }
+  // ... GRASP: on along the tool axis at ir_min_speed until grasp_advance
+  // past there, then STOP (nullopt). The IR folds back nearer than its peak,
+  // so the grasp reading comes with the fruit centre still ~2 cm ahead of the
+  // tool point: going on while the fingers close centres it between them,
+  // and a fruit swaying away along the axis during the close stays inside.
+  std::optional<Twist> grasp_twist(const Eigen::Isometry3d& tool) const;
+
+ private:
+  void reset_attempt(const Eigen::Vector3d& tool, rt::Micros now);
+
+  ServoConfig cfg_;
+  std::optional<ir_range_t> ir_;
+  rt::Micros ir_rx_ = 0;
+  int attempt_ = 0;
+  bool passing_leaf_ = false;        // this attempt has gone past a leaf (noted once)
+  std::optional<double> last_near_;  // last IR range just above the grasp range in this attempt [m]
+  bool folded_ = false;              // ... followed by a jump far beyond it: the sensor folded back
+  rt::Micros progress_at_ = 0;       // when the tool last moved ir_progress_step ...
+  Eigen::Vector3d progress_from_ = Eigen::Vector3d::Zero();  // ... from here
+  Eigen::Vector3d start_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d grasp_from_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace harvest::servo

@@ -1,0 +1,54 @@
+#include "servo/harvest/safety.hpp"
+
+#include "harvest/operator_command_t.hpp"
+
+namespace harvest::servo {
+
+std::optional<std::string> robot_fault(const robot_state_t& msg) {
+  switch (msg.mode) {
+    case robot_state_t::MODE_FAULT:
+      return "robot fault: " + (msg.fault_text.empty() ? std::string("(no text)") : msg.fault_text);
+    case robot_state_t::MODE_ESTOP:
+      return "robot reports emergency stop";
+    case robot_state_t::MODE_DISABLED:
+      return "robot drives disabled";
+    default:
+      return std::nullopt;
+  }
+}
+
+std::optional<std::string> gripper_fault(const gripper_state_t& msg) {
+  if (msg.state == gripper_state_t::STATE_FAULT)
+    return "gripper fault " + std::to_string(msg.fault_code) + ": " + msg.fault_text;
+  if (msg.state == gripper_state_t::STATE_DISCONNECTED || !msg.connected) return "gripper disconnected";
+  return std::nullopt;
+}
+
+std::optional<std::string> refusal(int8_t command, const CommandContext& c) {
+  using C = operator_command_t;
+  const bool running = spec(c.state).running;
+  switch (command) {
+    case C::START:
+    case C::HOME:
+      if (c.estop) return "emergency stop latched";
+      if (c.state == State::kFault) return "fault latched, send RESET_FAULT";
+      if (command == C::START && running) return "already running";
+      if (!c.robot_fresh) return "no robot state";
+      return std::nullopt;
+    case C::PAUSE:
+      if (!running || c.paused) return "nothing to pause";
+      return std::nullopt;
+    case C::RESUME:
+      if (!c.paused) return "not paused";
+      return std::nullopt;
+    case C::ABORT:
+      return std::nullopt;  // accepted in every state (it never releases a latched e-stop or fault)
+    case C::RESET_FAULT:
+      if (c.state != State::kFault) return "no fault to reset";
+      return std::nullopt;
+    default:
+      return "unknown command " + std::to_string(command);
+  }
+}
+
+}  // namespace harvest::servo

@@ -1,0 +1,104 @@
+// Closed-loop tests (closed_loop/loop.hpp): Grasp, detach, release and the way back out of the canopy.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "closed_loop/loop.hpp"
+#include "servo/geometry.hpp"
+
+namespace harvest::servo::testing {
+namespace {
+
+TEST(ClosedLoop, GripperClosingOnNothingIsAFailedGrasp) {
+  WorldSpec spec = experiment_one();
+  spec.gripper_misses = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0));
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::FAILED_GRASP);
+  EXPECT_EQ(loop.outcome(1)->detail, "gripper closed on nothing");
+  const auto grips = loop.bus.messages<gripper_command_t>(ch::kGripperCommand);
+  ASSERT_GE(grips.size(), 2u);
+  EXPECT_EQ(grips.back().second.action, +gripper_command_t::ACTION_OPEN);
+  expect_published(loop, 1, fruit_outcome_t::FAILED_GRASP, "gripper closed on nothing");
+  expect_motion_stopped(loop);
+}
+
+TEST(ClosedLoop, FruitSlippingFromTheGripperIsAFailedGrasp) {
+  WorldSpec spec = experiment_one();
+  spec.fruit_slips = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::FAILED_GRASP);
+  EXPECT_FALSE(loop.world.fruit_picked(1));
+  const auto grips = loop.bus.messages<gripper_command_t>(ch::kGripperCommand);
+  ASSERT_EQ(grips.size(), 2u);  // close on the fruit, open after the slip; never the drop's open
+  EXPECT_EQ(grips.back().second.action, +gripper_command_t::ACTION_OPEN);
+  bool dropped = false;
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus)) dropped |= st.state == "DROP";
+  EXPECT_FALSE(dropped) << "went on to the drop pose without the fruit";
+  expect_within_limits(loop);
+  expect_published(loop, 1, fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper");
+  expect_motion_stopped(loop);
+}
+
+// A stalled pull goes on to the drop; once the fruit is held, a drop the arm
+// does not carry out is a fault: the controller stops the arm and latches,
+// it does not wait 20 s.
+// By default the fruit is let go where the pull ended (it falls onto the
+// catching frame): no carry to drop_pose, one gripper OPEN, picked.
+TEST(ClosedLoop, FruitIsReleasedWhereThePullEnded) {
+  WorldSpec spec = experiment_one();
+  Loop loop(spec);
+  ASSERT_TRUE(loop.cfg.release_at_detach);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kRelease, 30.0)) << loop.ctrl.machine().summary();
+  ASSERT_TRUE(loop.world.close_position().has_value());
+  // The pull starts where the arm stopped, grasp_advance past where the
+  // gripper was told to close, and goes back along the same axis.
+  const double from_grasp = (loop.arm.tool().translation() - *loop.world.close_position()).norm();
+  EXPECT_NEAR(from_grasp, loop.cfg.pull_distance - loop.cfg.grasp_advance, 0.01);
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 30.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  const auto states = published_states(loop);
+  EXPECT_EQ(std::count(states.begin(), states.end(), "DROP"), 0);
+  EXPECT_EQ(std::count(states.begin(), states.end(), "RELEASE"), 1);
+}
+
+TEST(ClosedLoop, DetachThatStallsGoesOnToTheDropAndAStalledDropIsAFault) {
+  // Even when the fruit is released at the detach otherwise, a stalled pull
+  // goes on to the drop, whose path finishes pulling it off.
+  WorldSpec spec = experiment_one();
+  Loop loop(spec);
+  ASSERT_TRUE(loop.cfg.release_at_detach);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
+  loop.spec.arm_ignores_goals_after_s = 0.0;
+  ASSERT_TRUE(loop.run_until_state(State::kDrop, 10.0)) << loop.ctrl.machine().summary();
+  expect_fault_stops(loop, "motion stalled in DROP");
+}
+
+// After giving a fruit up deep in the canopy, RETREAT goes back along the
+// tool axis out to abreast of where the approach began (farther than
+// retreat_distance), so the way home does not cut through the canopy.
+TEST(ClosedLoop, RetreatLeavesTheCanopyTheWayTheGripperCameIn) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kAcquire, 30.0)) << loop.ctrl.machine().summary();
+  const Eigen::Vector3d approach_from = loop.arm.tool().translation();
+  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 90.0)) << loop.ctrl.machine().summary();
+  const Eigen::Isometry3d tool = loop.arm.tool();
+  const Eigen::Vector3d axis = tool.rotation().col(2);
+  ASSERT_GT((tool.translation() - approach_from).dot(axis), loop.cfg.retreat_distance + 0.1);  // deep in
+  const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
+  ASSERT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
+  const Eigen::Vector3d goal = to_isometry(c.pose_goal).translation();
+  EXPECT_LT((goal - tool.translation()).cross(axis).norm(), 1e-4);  // straight back
+  EXPECT_NEAR((goal - approach_from).dot(axis), 0.0, 1e-3);         // abreast of the start
+}
+
+}  // namespace
+}  // namespace harvest::servo::testing

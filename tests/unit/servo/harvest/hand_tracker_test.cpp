@@ -1,0 +1,185 @@
+#include "servo/harvest/hand_tracker.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace harvest::servo {
+namespace {
+
+// The hand camera at the base origin looking along +z, no distortion; the
+// fruit 0.5 m ahead on its axis; the fixed camera 0.3 m to the side, its
+// line of sight through the fruit crossing the optical axis at 0.54 rad.
+ServoConfig config() {
+  ServoConfig c;
+  c.hand_camera.distortion = {};
+  return c;
+}
+const Eigen::Isometry3d kCamera = Eigen::Isometry3d::Identity();
+constexpr rt::Micros kT = 1'000'000;
+
+Fruit fruit_ahead() {
+  Fruit f;
+  f.id = 1;
+  f.estimate = Eigen::Vector3d(0.0, 0.0, 0.5);
+  f.diameter = 0.075;
+  SightLine l;
+  l.origin = Eigen::Vector3d(-0.3, 0.0, 0.0);
+  l.direction = (f.estimate - l.origin).normalized();
+  l.near = 0.2;
+  l.far = 1.0;
+  f.sight = l;
+  return f;
+}
+
+fruit_t detection(double u, double v, double diameter_px) {
+  fruit_t f{};
+  f.u_px = static_cast<float>(u);
+  f.v_px = static_cast<float>(v);
+  f.diameter_px = static_cast<float>(diameter_px);
+  const int r = static_cast<int>(diameter_px / 2);
+  f.bbox_px[0] = static_cast<int>(u) - r;
+  f.bbox_px[1] = static_cast<int>(v) - r;
+  f.bbox_px[2] = f.bbox_px[3] = 2 * r;
+  return f;
+}
+
+fruit_detections_t image(rt::Micros utime, std::vector<fruit_t> fruits) {
+  fruit_detections_t m{};
+  m.header.utime = utime;
+  m.image_width = 640;
+  m.image_height = 480;
+  m.status = fruit_detections_t::STATUS_OK;
+  m.fruits = std::move(fruits);
+  m.num_fruits = static_cast<int32_t>(m.fruits.size());
+  return m;
+}
+
+targets_t hand_target(rt::Micros utime, int id, const fruit_t& at, const Eigen::Vector3d& p) {
+  targets_t m{};
+  m.header.utime = utime;
+  m.source_camera = "hand";
+  target_t t{};
+  t.fruit_id = id;
+  t.u_px = at.u_px;
+  t.v_px = at.v_px;
+  for (int i = 0; i < 3; ++i) t.position_base[i] = p[i];
+  m.targets.push_back(t);
+  m.num_targets = 1;
+  return m;
+}
+
+TEST(HandTracker, FollowsTheDetectionNearestTheFruitWithinTheGate) {
+  HandTracker h(config());
+  const Fruit f = fruit_ahead();
+  // The estimate projects at the principal point (319.5, 239.5).
+  h.on_detections(image(1, {detection(450, 240, 60), detection(340, 250, 60)}), f, kCamera, kT);
+  ASSERT_TRUE(h.fresh(kT).has_value());
+  EXPECT_FLOAT_EQ(h.fresh(kT)->u, 340.0f);
+  EXPECT_EQ(h.fresh(kT)->utime, 1);
+  EXPECT_EQ(h.seen_at(), kT);
+  // Then it follows its last centroid: the detection that moved on, not the one at the estimate.
+  h.on_detections(image(2, {detection(320, 240, 60), detection(380, 250, 60)}), f, kCamera, kT + 33'000);
+  EXPECT_FLOAT_EQ(h.fresh(kT + 33'000)->u, 320.0f);  // 20 px from 340, nearer than 380
+  // Stale after timeouts.lost.
+  EXPECT_FALSE(h.fresh(kT + 33'000 + rt::from_seconds(0.31)).has_value());
+}
+
+TEST(HandTracker, NothingWithinTheGateIsNoMeasurement) {
+  HandTracker h(config());
+  Fruit f = fruit_ahead();
+  f.sight.reset();  // no line of sight: gated on the distance to the projected estimate
+  h.on_detections(image(1, {detection(319.5 + 81, 239.5, 60)}), f, kCamera, kT);  // 81 px > 80 px gate
+  EXPECT_FALSE(h.fresh(kT).has_value());
+  h.on_detections(image(1, {detection(319.5 + 79, 239.5, 60)}), f, kCamera, kT);
+  EXPECT_TRUE(h.fresh(kT).has_value());
+}
+
+// With a line of sight the gate is on the distance to its image: a detection
+// on it far from the projected estimate (a doubtful depth) is taken, one off
+// it is not.
+TEST(HandTracker, TheGateFollowsTheImageOfTheLineOfSight) {
+  HandTracker h(config());
+  const Fruit f = fruit_ahead();  // its line of sight images onto the row v = 239.5
+  h.on_detections(image(1, {detection(150, 239.5 + 85, 60)}), f, kCamera, kT);
+  EXPECT_FALSE(h.fresh(kT).has_value());
+  h.on_detections(image(1, {detection(150, 239.5 + 5, 60)}), f, kCamera, kT);
+  EXPECT_TRUE(h.fresh(kT).has_value());
+}
+
+// Hand-worked: the rays cross at the fruit, 0.5 m from the camera: a size
+// depth within max(0.1, 0.3 x 0.5) = 0.15 m of it is kept (confirmed), a
+// leaf-cut fruit's 2.5 times too deep one is replaced by the crossing.
+TEST(HandTracker, TheRaysCrossingConfirmsOrReplacesTheSizeDepth) {
+  const fruit_t d = detection(319.5, 239.5, 125);
+  for (const auto& [sized, kept] :
+       {std::pair{Eigen::Vector3d(0.0, 0.0, 0.64), true}, std::pair{Eigen::Vector3d(0.0, 0.0, 0.66), false},
+        std::pair{Eigen::Vector3d(0.0, 0.0, 1.25), false}}) {
+    HandTracker h(config());
+    Fruit f = fruit_ahead();
+    h.on_detections(image(7, {d}), f, kCamera, kT);
+    h.on_hand_targets(hand_target(7, 99, d, sized), f, kCamera, kT);
+    if (kept) {
+      EXPECT_EQ(f.depth, Fruit::Depth::kConfirmed) << sized.z();
+      EXPECT_NEAR(f.estimate.z(), sized.z(), 1e-12);
+    } else {
+      EXPECT_EQ(f.depth, Fruit::Depth::kCrossing) << sized.z();
+      EXPECT_NEAR(f.estimate.z(), 0.5, 1e-6);
+    }
+  }
+}
+
+TEST(HandTracker, WithoutACrossingTheSizeDepthIsTakenAsInTheThesis) {
+  ServoConfig c = config();
+  c.triangulation_gap = 0.0;  // the thesis's eq. 6-15
+  HandTracker h(c);
+  Fruit f = fruit_ahead();
+  f.depth_doubtful = true;
+  const fruit_t d = detection(319.5, 239.5, 125);
+  h.on_detections(image(7, {d}), f, kCamera, kT);
+  h.on_hand_targets(hand_target(7, 99, d, {0.0, 0.0, 1.25}), f, kCamera, kT);
+  EXPECT_EQ(f.depth, Fruit::Depth::kSize);
+  EXPECT_NEAR(f.estimate.z(), 1.25, 1e-12);
+  EXPECT_FALSE(f.depth_doubtful);
+}
+
+TEST(HandTracker, AFruitCutByTheBorderOrFillingTheImageGivesNoDepth) {
+  for (const fruit_t& d : {detection(319.5, 239.5, 400),  // 400 px of 480: fills the view
+                           detection(40, 239.5, 78)}) {   // bbox from x = 1: on the border
+    HandTracker h(config());
+    Fruit f = fruit_ahead();
+    h.on_detections(image(7, {d}), f, kCamera, kT);
+    ASSERT_TRUE(h.fresh(kT).has_value()) << d.u_px;
+    h.on_hand_targets(hand_target(7, 99, d, {0.0, 0.0, 0.55}), f, kCamera, kT);
+    EXPECT_NEAR(f.estimate.z(), 0.5, 1e-12) << d.u_px;
+  }
+  // A target of another image, or at another pixel, is not this detection's either.
+  HandTracker h(config());
+  Fruit f = fruit_ahead();
+  const fruit_t d = detection(319.5, 239.5, 125);
+  h.on_detections(image(7, {d}), f, kCamera, kT);
+  h.on_hand_targets(hand_target(8, 99, d, {0.0, 0.0, 0.55}), f, kCamera, kT);
+  h.on_hand_targets(hand_target(7, 99, detection(321, 239.5, 125), {0.0, 0.0, 0.55}), f, kCamera, kT);
+  EXPECT_NEAR(f.estimate.z(), 0.5, 1e-12);
+}
+
+// Hand-worked: a detection 420 px across (of 480) covering the image centre,
+// its centre 42 px off it, while the fruit aimed at should look 125 px
+// across (833.57 x 0.075 / 0.5): a nearer fruit 0.1 diameters = 7.5 mm off the axis.
+TEST(HandTracker, ANearerFruitFillingTheViewOnTheAxisIsReportedWithItsOffset) {
+  HandTracker h(config());
+  const Fruit f = fruit_ahead();
+  h.on_detections(image(1, {detection(319.5 + 42, 239.5, 420)}), f, kCamera, kT);
+  ASSERT_TRUE(h.fruit_in_front(kT).has_value());
+  EXPECT_NEAR(*h.fruit_in_front(kT), 42.0 / 420.0 * 0.075, 1e-6);
+  EXPECT_FALSE(h.fruit_in_front(kT + rt::from_seconds(0.31)).has_value());
+  // Filling the view but no larger than 1.5 times the fruit aimed at: that fruit itself.
+  HandTracker near(config());
+  Fruit close = fruit_ahead();
+  close.estimate.z() = 0.14;  // looks 447 px across
+  near.on_detections(image(1, {detection(319.5, 239.5, 420)}), close, kCamera, kT);
+  EXPECT_FALSE(near.fruit_in_front(kT).has_value());
+}
+
+}  // namespace
+}  // namespace harvest::servo

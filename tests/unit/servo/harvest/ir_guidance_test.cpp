@@ -1,0 +1,174 @@
+#include "servo/harvest/ir_guidance.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace harvest::servo {
+namespace {
+
+// The tool at the origin, its axis along +z; the fruit's estimated centre
+// `ahead` metres along it. Default gains: grasp range 15 mm, braking
+// 0.8 m/s^2, speeds 0.04..0.381 m/s, IR stale after 0.3 s.
+const Eigen::Isometry3d kTool = Eigen::Isometry3d::Identity();
+constexpr rt::Micros kT = 10'000'000;
+
+Fruit fruit(double ahead, Fruit::Depth depth = Fruit::Depth::kSize) {
+  Fruit f;
+  f.estimate = Eigen::Vector3d(0.0, 0.0, ahead);
+  f.depth = depth;
+  return f;
+}
+
+ir_range_t reading(double range, int8_t validity = ir_range_t::VALID) {
+  ir_range_t m{};
+  m.validity = validity;
+  m.range_m = static_cast<float>(range);
+  return m;
+}
+
+Eigen::Isometry3d tool_at(double z) {
+  Eigen::Isometry3d t = kTool;
+  t.translation().z() = z;
+  return t;
+}
+
+IrGuidance guiding(rt::Micros now = kT) {
+  IrGuidance g{ServoConfig{}};
+  g.begin(kTool.translation(), now);
+  return g;
+}
+
+// Hand-worked: v = sqrt(2 a d) clamped to [0.04, 0.381] m/s.
+TEST(IrGuidance, ForwardSpeedBrakesAtAConstantRateToTheGraspRange) {
+  IrGuidance g = guiding();
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.1), false), 0.381, 1e-12);  // sqrt(0.16) = 0.4, capped
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.02), false), std::sqrt(2 * 0.8 * 0.02), 1e-12);
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.0005), false), 0.04, 1e-12);  // never below the minimum
+  // The IR range, if shorter, is the range to go: 35 mm read, 15 mm grasp range: 20 mm.
+  g.on_reading(reading(0.035), kT, true);
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.1), true), std::sqrt(2 * 0.8 * 0.02), 1e-6);
+  // ... but a far reading (the fold-back) never speeds the arm up beyond the estimate's.
+  g.on_reading(reading(0.3), kT, true);
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.02), true), std::sqrt(2 * 0.8 * 0.02), 1e-12);
+}
+
+TEST(IrGuidance, AdvancesAtTheBrakingSpeedAndClosesAtTheGraspRange) {
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.035), kT, true);
+  IrStep s = g.step(kT, kTool, fruit(0.06), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_NEAR(s.forward_speed, std::sqrt(2 * 0.8 * 0.02), 1e-6);
+  g.on_reading(reading(0.015), kT, true);
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.04), std::nullopt).action, IrStep::Action::kClose);
+  g.on_reading(reading(0.0, ir_range_t::TOO_NEAR), kT, true);
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.04), std::nullopt).action, IrStep::Action::kClose);
+}
+
+TEST(IrGuidance, NeverAdvancesOnAStaleReading) {
+  IrGuidance g = guiding();
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.1), std::nullopt).action, IrStep::Action::kHold);  // none yet
+  g.on_reading(reading(0.1), kT, true);
+  EXPECT_EQ(g.step(kT + rt::from_seconds(0.3), kTool, fruit(0.1), std::nullopt).action, IrStep::Action::kAdvance);
+  EXPECT_EQ(g.step(kT + rt::from_seconds(0.31), kTool, fruit(0.1), std::nullopt).action, IrStep::Action::kHold);
+}
+
+// The sensor folds back nearer than its peak: 30 mm (within 20 mm above the
+// grasp range) then 300 mm (more than 30 mm farther) is the fruit inside.
+TEST(IrGuidance, AFoldBackJumpIsTheFruitInsideTheGraspRange) {
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.030), kT, true);
+  g.on_reading(reading(0.300), kT, true);
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.02), std::nullopt).action, IrStep::Action::kClose);
+  // Not from readings taken outside IR guidance, nor from one not near enough first.
+  IrGuidance before = guiding();
+  before.on_reading(reading(0.030), kT, false);
+  before.on_reading(reading(0.300), kT, true);
+  EXPECT_EQ(before.step(kT, kTool, fruit(0.02), std::nullopt).action, IrStep::Action::kAdvance);
+  IrGuidance far = guiding();
+  far.on_reading(reading(0.036), kT, true);
+  far.on_reading(reading(0.300), kT, true);
+  EXPECT_EQ(far.step(kT, kTool, fruit(0.02), std::nullopt).action, IrStep::Action::kAdvance);
+  // A new attempt forgets it.
+  g.retry(kTool.translation(), kT);
+  g.on_reading(reading(0.300), kT, true);
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.02), std::nullopt).action, IrStep::Action::kAdvance);
+}
+
+// A grasp reading with the checked estimate 20 cm ahead (more than 7 cm) is a
+// leaf: noted once, passed. A depth from the size alone never overrules the IR.
+TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.010), kT, true);
+  IrStep s = g.step(kT, kTool, fruit(0.2, Fruit::Depth::kConfirmed), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 10 mm, fruit 200 mm ahead: past a leaf");
+  EXPECT_NEAR(s.forward_speed, 0.381, 1e-12);  // at the estimate's speed, the leaf's reading ignored
+  s = g.step(kT, kTool, fruit(0.2, Fruit::Depth::kCrossing), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_FALSE(s.note.has_value());
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.06, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kClose);  // 6 cm ahead: the fruit
+  IrGuidance size_only = guiding();
+  size_only.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(size_only.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), std::nullopt).action, IrStep::Action::kClose);
+}
+
+// A nearer fruit filling the view: closed on within 15 mm of the axis, left beside it.
+TEST(IrGuidance, ANearerFruitInTheWayIsClosedOnOnlyNearTheAxis) {
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.010), kT, true);
+  // Never taken for a leaf: the IR reads that fruit.
+  EXPECT_EQ(g.step(kT, kTool, fruit(0.2, Fruit::Depth::kConfirmed), 0.010).action, IrStep::Action::kClose);
+  const IrStep s = g.step(kT, kTool, fruit(0.2, Fruit::Depth::kConfirmed), 0.020);
+  EXPECT_EQ(s.action, IrStep::Action::kFruitInTheWay);
+  EXPECT_DOUBLE_EQ(s.offset, 0.020);
+}
+
+TEST(IrGuidance, AnAttemptEndsOutOfTravelPastTheFruitOrBlocked) {
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.2, ir_range_t::TOO_FAR), kT, true);
+  EXPECT_EQ(g.step(kT, tool_at(0.59), fruit(1.0), std::nullopt).action, IrStep::Action::kAdvance);
+  EXPECT_EQ(g.step(kT, tool_at(0.61), fruit(1.0), std::nullopt).action, IrStep::Action::kGiveUp);  // 0.6 m
+  IrGuidance past = guiding();
+  past.on_reading(reading(0.2, ir_range_t::TOO_FAR), kT, true);
+  EXPECT_EQ(past.step(kT, tool_at(0.2), fruit(0.151), std::nullopt).action, IrStep::Action::kAdvance);
+  EXPECT_EQ(past.step(kT, tool_at(0.2), fruit(0.149), std::nullopt).action, IrStep::Action::kGiveUp);  // 51 mm past
+  // Blocked: less than 5 mm of motion in the stall time (2 s).
+  IrGuidance blocked = guiding();
+  const auto at = [&](double s) { return kT + rt::from_seconds(s); };
+  blocked.on_reading(reading(0.2, ir_range_t::TOO_FAR), at(1.9), true);
+  EXPECT_NE(blocked.step(at(1.9), tool_at(0.004), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
+  blocked.on_reading(reading(0.2, ir_range_t::TOO_FAR), at(2.1), true);
+  EXPECT_EQ(blocked.step(at(2.1), tool_at(0.004), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
+  IrGuidance moving = guiding();
+  moving.on_reading(reading(0.2, ir_range_t::TOO_FAR), at(2.1), true);
+  EXPECT_NE(moving.step(at(1.9), tool_at(0.006), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
+  EXPECT_NE(moving.step(at(2.1), tool_at(0.006), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
+}
+
+TEST(IrGuidance, ARetryCountsTheAttemptAndKeepsWhereGuidanceBegan) {
+  IrGuidance g{ServoConfig{}};
+  g.begin({0.0, 0.0, 0.1}, kT);
+  EXPECT_EQ(g.attempt(), 1);
+  EXPECT_TRUE(g.attempts_left());
+  g.retry({0.0, 0.0, 0.3}, kT);
+  EXPECT_EQ(g.attempt(), 2);
+  EXPECT_FALSE(g.attempts_left());  // ir_attempts 2
+  EXPECT_DOUBLE_EQ(g.start().z(), 0.1);
+}
+
+TEST(IrGuidance, TheGripperGoesOnAlongItsAxisWhileItCloses) {
+  IrGuidance g = guiding();
+  g.closing_at(kTool.translation());
+  const auto first = g.grasp_twist(kTool);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_NEAR(first->linear.z(), 0.04, 1e-12);
+  EXPECT_NEAR(first->linear.head<2>().norm(), 0.0, 1e-12);
+  EXPECT_TRUE(g.grasp_twist(tool_at(0.0149)).has_value());
+  EXPECT_FALSE(g.grasp_twist(tool_at(0.015)).has_value());  // grasp_advance reached: stop
+}
+
+}  // namespace
+}  // namespace harvest::servo
