@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "geometry/transform_file.hpp"
+
 namespace harvest::kinematics {
 namespace {
 
@@ -88,7 +90,21 @@ ArmModel ArmModel::from_config(const config::Node& node) {
   }
   m.base = read_base(node.child("base"));
   m.tool = read_offset(node.child("tool"), {0.0, 0.0, 0.1905});
-  m.camera = read_offset(node.child("camera"), {0.0, 0.0, 0.1905});
+  const auto camera = node.child("camera");
+  if (camera.has("calibration")) {
+    // The camera-in-hand calibration (harvest-calibrate hand-eye) places the
+    // camera in the tool frame: flange <- tool <- camera.
+    if (camera.has("position") || camera.has("rpy_deg"))
+      camera.fail("calibration", "either a calibration file or position/rpy_deg, not both");
+    const auto file = camera.file_path("calibration");
+    try {
+      m.camera = m.tool * geometry::load_transform_file(file, geometry::Handedness::kProper);
+    } catch (const std::exception& e) {
+      camera.fail("calibration", std::string("a readable hand-eye calibration (") + e.what() + ")");
+    }
+  } else {
+    m.camera = read_offset(camera, {0.0, 0.0, 0.1905});
+  }
   const auto home = node.numbers("home_deg", m.joints.size());
   m.home = Eigen::Map<const Eigen::VectorXd>(home.data(), static_cast<Eigen::Index>(home.size())) * kDeg;
   if (!m.within_limits(m.home)) node.fail("home_deg", "a configuration inside every joint's limits");

@@ -30,7 +30,10 @@ struct ArmModel {
   std::vector<Joint> joints;
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();    // DH frame 0 in the robot base frame
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // tool centre point in the flange frame
-  Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();  // hand camera optical frame in the flange frame
+  // Hand camera optical frame in the flange frame: `camera: {position, rpy_deg}`
+  // in the flange frame, or `camera: {calibration: FILE}`, the camera in the
+  // tool frame as harvest-calibrate writes it (then camera = tool * file).
+  Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();
   Eigen::VectorXd home;                                      // [rad]
   // Posture the IK's null-space motion pulls toward (rest_deg, default home_deg).
   Eigen::VectorXd rest;  // [rad]

@@ -15,25 +15,34 @@ void ReconstructionApproach::reset() {
 }
 
 ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
+  // The fruit is brought onto the gripper axis (tool z), not onto the
+  // camera's optical axis: the camera sits beside the gripper axis and a few
+  // degrees off parallel, and the hand-eye calibration (camera pose vs tool
+  // pose, both from ROBOT_STATE) carries its measurement into the tool frame.
+  // With the camera at the tool point, looking along its axis, this is
+  // eq. 6-25..6-28 as the thesis writes them.
+  const Eigen::Isometry3d tool_inv = in.tool.inverse();
   const Eigen::Matrix3d rc = in.camera.rotation();
   // Depth of the fruit along the optical axis from the best 3D estimate (eq. 6-15).
   const double depth = std::max(0.0, (rc.transpose() * (in.fruit_base - in.camera.translation())).z());
-  Eigen::Vector3d e(0.0, 0.0, depth);
+  // Without a fresh view nothing lateral is known: only the depth along the gripper axis.
+  Eigen::Vector3d e(0.0, 0.0, std::max(0.0, (tool_inv * in.fruit_base).z()));
   if (in.pixel) {
-    // Eq. 6-25, 6-26 in normalised coordinates, scaled by the depth.
+    // Eq. 6-25, 6-26 in normalised coordinates, scaled by the depth: the
+    // fruit in the camera frame, then in the tool frame.
     const Eigen::Vector2d m = undistort_pixel(camera_, in.pixel->u, in.pixel->v);
-    e.x() = m.x() * depth;
-    e.y() = m.y() * depth;
+    const Eigen::Vector3d seen_base = in.camera * Eigen::Vector3d(m.x() * depth, m.y() * depth, depth);
+    e = tool_inv * seen_base;
     if (in.forward_speed && gains_.sway_window > 0.0) {
       // Under IR guidance (near the fruit, centred, its depth good): the mean
-      // of its positions over the window, seen from the camera now. Earlier
+      // of its positions over the window, seen from the tool now. Earlier
       // views are left out: far off the image centre, their depth error moves
       // them sideways.
-      if (seen_.empty() || in.pixel->utime > seen_.back().utime) seen_.push_back({in.pixel->utime, in.camera * e});
+      if (seen_.empty() || in.pixel->utime > seen_.back().utime) seen_.push_back({in.pixel->utime, seen_base});
       while (seen_.front().utime < in.pixel->utime - rt::from_seconds(gains_.sway_window)) seen_.pop_front();
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (const auto& s : seen_) mean += s.base;
-      const Eigen::Vector3d q = in.camera.inverse() * (mean / static_cast<double>(seen_.size()));
+      const Eigen::Vector3d q = tool_inv * (mean / static_cast<double>(seen_.size()));
       e.x() = q.x();
       e.y() = q.y();
     }
@@ -62,10 +71,10 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
   // neighbours off.
   const double lateral = e.head<2>().norm();
   if (in.pixel && gains_.kp_lateral > 0.0 && gains_.centring_tolerance > 0.0 && lateral > gains_.centring_tolerance)
-    v.z() = std::min(v.z(), gains_.kp_lateral * e.z() / std::log(lateral / gains_.centring_tolerance));
+    v.z() = std::min(v.z(), gains_.kp_lateral * std::max(0.0, e.z()) / std::log(lateral / gains_.centring_tolerance));
   ApproachOutput out;
-  out.twist.linear = rc * v;
-  out.error_camera = e;
+  out.twist.linear = in.tool.rotation() * v;
+  out.error = e;
   return out;
 }
 

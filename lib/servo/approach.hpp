@@ -29,14 +29,17 @@ struct ApproachInput {
   Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();  // camera-in-hand optical frame in the base frame
   Eigen::Vector3d fruit_base = Eigen::Vector3d::Zero();      // best 3D estimate of the fruit centre
   std::optional<PixelMeasurement> pixel;                     // newest associated centroid, if fresh
-  // Set under IR guidance: hold this forward speed along the camera axis
-  // instead of regulating the depth error (thesis HarvestStep5).
+  // Set under IR guidance: hold this forward speed along the approach axis
+  // (the gripper axis for the reconstruction approach, the camera axis for
+  // teach by zooming) instead of regulating the depth error (thesis HarvestStep5).
   std::optional<double> forward_speed;
 };
 
 struct ApproachOutput {
   Twist twist;                   // desired tool twist in the base frame, before limits
-  Eigen::Vector3d error_camera;  // [m] centring x, y and depth error in the camera frame
+  // [m] centring x, y and depth error: of the fruit from the gripper axis in
+  // the tool frame (reconstruction), or in the camera frame (teach by zooming).
+  Eigen::Vector3d error;
 };
 
 class ApproachStrategy {
@@ -51,9 +54,11 @@ class ApproachStrategy {
 // 3D-reconstruction visual servoing, eq. 6-25..6-28. The pixel errors
 // (u - u0, v - v0) are turned into metric lateral errors with the undistorted
 // normalised coordinates times the estimated depth, so one gain set works at
-// every distance; the depth error is the estimated fruit depth along the
-// optical axis. v_camera = kp e + kd de/dt, rotated into the base frame. (The
-// thesis writes -kv de/dt with its error sign; here kd > 0 always damps.)
+// every distance. That point is carried from the camera into the tool frame
+// (the hand-eye calibration), so the fruit is centred on the gripper axis and
+// the depth error is the fruit's depth ahead of the tool point along it.
+// v_tool = kp e + kd de/dt, rotated into the base frame. (The thesis writes
+// -kv de/dt with its error sign; here kd > 0 always damps.)
 class ReconstructionApproach final : public ApproachStrategy {
  public:
   ReconstructionApproach(Gains gains, CameraIntrinsics camera) : gains_(gains), camera_(camera) {}

@@ -35,7 +35,7 @@ void TbzApproach::on_matches(const feature_matches_t& m) { matches_ = m; }
 
 ApproachOutput TbzApproach::update(const ApproachInput& in) {
   ApproachOutput out;
-  out.error_camera.setZero();
+  out.error.setZero();
   const Eigen::Matrix3d R_tool = in.tool.rotation();
   if (in.forward_speed) {  // IR guidance: straight on along the camera axis
     out.twist.linear = in.camera.rotation() * Eigen::Vector3d(0, 0, *in.forward_speed);
@@ -79,7 +79,7 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   const Eigen::Matrix3d R_out = params_.hand_eye_from_poses ? in.camera.rotation() : R_tool;
   out.twist.linear = R_out * last_.robot.v;
   out.twist.angular = R_out * last_.robot.w;
-  out.error_camera = last_.e_v;
+  out.error = last_.e_v;
   return out;
 }
 

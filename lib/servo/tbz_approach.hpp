@@ -6,7 +6,7 @@
 // Wiring: whoever owns the strategy forwards every feature_matches_t to
 // on_matches() (the servo controller node subscribes FEATURE_MATCHES when
 // approach_mode is "tbz"). Without fresh verified matches (status not OK,
-// or older than max_match_age_s) the twist is zero and error_camera zero:
+// or older than max_match_age_s) the twist is zero and error zero:
 // the harvest machine's own timeouts then give the fruit up.
 #pragma once
 

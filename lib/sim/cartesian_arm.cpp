@@ -32,11 +32,10 @@ void to_pose(const Placement& p, pose_t& out) {
   out.orientation[3] = q.z();
 }
 
-CartesianArm::CartesianArm(const ArmSetup& setup, const Placement& start) : setup_(setup), tool_(start) {}
+CartesianArm::CartesianArm(const ArmSetup& setup, const Placement& start, const Placement& reported_hand_eye)
+    : setup_(setup), reported_hand_eye_(reported_hand_eye), tool_(start) {}
 
-Placement CartesianArm::hand_camera() const {
-  return {tool_.rotation, tool_.position + tool_.rotation * setup_.hand_camera_offset};
-}
+Placement CartesianArm::hand_camera() const { return compose(tool_, setup_.hand_eye); }
 
 bool CartesianArm::command(const robot_command_t& cmd, double t) {
   if (cmd.type == robot_command_t::TYPE_JOINT_GOAL || cmd.type < 0 || cmd.type > robot_command_t::TYPE_JOINT_GOAL) {
@@ -103,7 +102,8 @@ void CartesianArm::fill_state(robot_state_t& s, double t) const {
   s.drive_state.clear();
   s.drive_error_code.clear();
   to_pose(tool_, s.tool_pose);
-  to_pose(hand_camera(), s.camera_pose);
+  // As the robot link reports it: the tool pose times the software's hand-eye.
+  to_pose(compose(tool_, reported_hand_eye_), s.camera_pose);
   for (int i = 0; i < 3; ++i) {
     s.tool_twist.linear[i] = v_[i];
     s.tool_twist.angular[i] = w_[i];

@@ -15,7 +15,10 @@ namespace harvest::sim {
 
 class CartesianArm {
  public:
-  CartesianArm(const ArmSetup& setup, const Placement& start);
+  // `reported_hand_eye` is the software's camera-in-hand calibration (camera
+  // in the tool frame): ROBOT_STATE's camera pose is computed with it, as the
+  // robot link computes it, while hand_camera() is the truth (setup.hand_eye).
+  CartesianArm(const ArmSetup& setup, const Placement& start, const Placement& reported_hand_eye);
 
   // Accepts a command received at time t [s]. Returns false (and ignores it)
   // for command types this arm cannot follow (joint goals).
@@ -24,7 +27,7 @@ class CartesianArm {
   void step(double t);
 
   const Placement& tool() const { return tool_; }
-  Placement hand_camera() const;
+  Placement hand_camera() const;  // the true camera-in-hand pose
   const Vec3& linear_velocity() const { return v_; }
   const Vec3& angular_velocity() const { return w_; }
   bool moving() const { return v_.norm() > 1e-6 || w_.norm() > 1e-6; }
@@ -37,6 +40,7 @@ class CartesianArm {
 
  private:
   ArmSetup setup_;
+  Placement reported_hand_eye_;
   Placement tool_;
   Vec3 v_ = Vec3::Zero(), w_ = Vec3::Zero();
   int8_t type_ = robot_command_t::TYPE_STOP;

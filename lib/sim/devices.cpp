@@ -123,11 +123,8 @@ std::vector<simdrive::SimDriveConfig> DeviceArm::with_start(std::vector<simdrive
 }
 
 DeviceArm::DeviceArm(can::CanBus& bus, kinematics::ArmModel model, std::vector<simdrive::SimDriveConfig> drives,
-                     const Eigen::VectorXd& q0, const Eigen::Isometry3d& mounting, const Vec3& hand_camera_offset)
-    : model_(std::move(model)),
-      set_(bus, with_start(std::move(drives), q0)),
-      mounting_(mounting),
-      hand_camera_offset_(hand_camera_offset) {
+                     const Eigen::VectorXd& q0, const Eigen::Isometry3d& mounting, const Placement& hand_eye)
+    : model_(std::move(model)), set_(bus, with_start(std::move(drives), q0)), mounting_(mounting), hand_eye_(hand_eye) {
   if (static_cast<int>(set_.size()) != model_.dof())
     throw std::invalid_argument("DeviceArm: the drive list does not match the arm model");
   update_pose();
@@ -146,8 +143,7 @@ Eigen::VectorXd DeviceArm::joints() const {
 void DeviceArm::update_pose() {
   const Eigen::VectorXd q = joints();
   tool_ = to_placement(mounting_ * kinematics::tool_pose(model_, q));
-  hand_camera_ = to_placement(mounting_ * kinematics::camera_pose(model_, q));
-  hand_camera_.position += hand_camera_.rotation * hand_camera_offset_;
+  hand_camera_ = compose(tool_, hand_eye_);
 }
 
 void BoardGripper::command(const endeffector::GripperGoal& goal, rt::Micros now) {

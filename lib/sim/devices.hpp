@@ -65,7 +65,7 @@ class DeviceArm {
  public:
   // The drives start at `q0` (their configured initial positions are replaced).
   DeviceArm(can::CanBus& bus, kinematics::ArmModel model, std::vector<simdrive::SimDriveConfig> drives,
-            const Eigen::VectorXd& q0, const Eigen::Isometry3d& mounting, const Vec3& hand_camera_offset);
+            const Eigen::VectorXd& q0, const Eigen::Isometry3d& mounting, const Placement& hand_eye);
 
   void drain(rt::Micros now) { set_.drain(now); }
   void advance(rt::Micros now);
@@ -84,7 +84,7 @@ class DeviceArm {
   kinematics::ArmModel model_;
   simdrive::SimDriveSet set_;
   Eigen::Isometry3d mounting_;
-  Vec3 hand_camera_offset_;
+  Placement hand_eye_;  // true camera in the tool frame (the arm model's camera is the software's)
   Placement tool_, hand_camera_;
 };
 

@@ -65,7 +65,29 @@ Mat3 rotation(const config::Node& n, const std::string& key) {
   return r;
 }
 
+Mat3 rotation_rpy_deg(const Vec3& rpy_deg) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  return (Eigen::AngleAxisd(rpy_deg.z() * kDeg, Vec3::UnitZ()) * Eigen::AngleAxisd(rpy_deg.y() * kDeg, Vec3::UnitY()) *
+          Eigen::AngleAxisd(rpy_deg.x() * kDeg, Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+// {translation_mm, rpy_deg}: R = Rz(yaw) Ry(pitch) Rx(roll), as the arm model.
+Placement placement_rpy(const config::Node& n, const Vec3& position, const Vec3& rpy_deg) {
+  Placement p;
+  p.position = vec3_mm(n, "translation_mm", position);
+  const auto rpy = n.numbers("rpy_deg", {rpy_deg.x(), rpy_deg.y(), rpy_deg.z()}, 3);
+  p.rotation = rotation_rpy_deg(Vec3(rpy[0], rpy[1], rpy[2]));
+  return p;
+}
+
+// The simulated gripper's camera (see ArmSetup::hand_eye).
+Vec3 hand_eye_position() { return {0.014, -0.009, -0.048}; }
+Vec3 hand_eye_rpy_deg() { return {1.5, -2.5, 3.0}; }
+
 }  // namespace
+
+Placement ArmSetup::standard_hand_eye() { return {rotation_rpy_deg(hand_eye_rpy_deg()), hand_eye_position()}; }
 
 Scenario Scenario::from_config(const config::Node& root) {
   Scenario s;
@@ -144,17 +166,8 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.arm.max_linear_speed = a.get<double>("max_linear_speed", s.arm.max_linear_speed, {0.001, 5.0});
   s.arm.max_angular_speed = a.get<double>("max_angular_speed", s.arm.max_angular_speed, {0.001, 10.0});
   s.arm.max_linear_accel = a.get<double>("max_linear_accel", s.arm.max_linear_accel, {0.01, 50.0});
-  s.arm.hand_camera_offset = vec3_mm(a, "hand_camera_offset_mm", s.arm.hand_camera_offset);
-  const auto m = a.child("mounting_truth");
-  s.arm.mounting.position = vec3_mm(m, "translation_mm", Vec3::Zero());
-  {
-    const auto rpy = m.numbers("rpy_deg", {0.0, 0.0, 0.0}, 3);
-    constexpr double kDeg = 3.14159265358979323846 / 180.0;
-    s.arm.mounting.rotation =
-        (Eigen::AngleAxisd(rpy[2] * kDeg, Vec3::UnitZ()) * Eigen::AngleAxisd(rpy[1] * kDeg, Vec3::UnitY()) *
-         Eigen::AngleAxisd(rpy[0] * kDeg, Vec3::UnitX()))
-            .toRotationMatrix();
-  }
+  s.arm.hand_eye = placement_rpy(a.child("hand_eye_truth"), hand_eye_position(), hand_eye_rpy_deg());
+  s.arm.mounting = placement_rpy(a.child("mounting_truth"), Vec3::Zero(), Vec3::Zero());
 
   if (a.has("variants")) {
     for (const auto& v : a.children("variants")) {

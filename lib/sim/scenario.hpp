@@ -27,6 +27,11 @@ struct Placement {
   Vec3 position = Vec3::Zero();
 };
 
+// `child` is placed in a's frame; the result is in a's parent frame (a * child).
+inline Placement compose(const Placement& a, const Placement& child) {
+  return {a.rotation * child.rotation, a.position + a.rotation * child.position};
+}
+
 struct CameraSetup {
   vision::CameraModel model;  // the TRUE intrinsics and distortion
   double rate_hz = 30.0;
@@ -98,7 +103,13 @@ struct ArmSetup {
   double max_linear_speed = 0.381;         // [m/s]
   double max_angular_speed = 1.0;          // [rad/s]
   double max_linear_accel = 1.5;           // [m/s^2]
-  Vec3 hand_camera_offset = Vec3::Zero();  // in the tool frame [m]
+  // The camera-in-hand's TRUE optical frame in the tool frame (the software
+  // has its own estimate, config/cameras/hand_eye.yaml). Default: the
+  // simulated gripper's camera, in the palm beside the IR sensor, 17 mm off
+  // the gripper axis and a few degrees off parallel (scenario key
+  // arm.hand_eye_truth).
+  Placement hand_eye = standard_hand_eye();
+  static Placement standard_hand_eye();
   // Hardware mode "devices": where the arm's robot base frame truly is in the
   // scenario (world) frame. The software assumes identity, so this is the
   // arm's mounting calibration error.

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "camera/image_codec.hpp"
+#include "geometry/transform_file.hpp"
 #include "harvest/gripper_command_t.hpp"
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/ir_range_t.hpp"
@@ -47,6 +48,12 @@ SimConfig SimConfig::from_config(const config::Node& n) {
   c.run = n.get<int>("run", 0, {0, 100000});
   c.hardware = n.choice("hardware", c.hardware, {"direct", "devices"});
   if (c.hardware == "devices" || n.has("devices")) c.devices = DevicesConfig::from_config(n.child("devices"));
+  const auto hand_eye = n.file_path("hand_eye", "config/cameras/hand_eye.yaml");
+  try {
+    c.reported_hand_eye = to_placement(geometry::load_transform_file(hand_eye, geometry::Handedness::kProper));
+  } catch (const std::exception& e) {
+    n.fail("hand_eye", std::string("a readable hand-eye calibration (") + e.what() + ")");
+  }
   c.physics_rate_hz = n.get<double>("physics_rate_hz", c.physics_rate_hz, {10.0, 2000.0});
   c.robot_state_rate_hz = n.get<double>("robot_state_rate_hz", c.robot_state_rate_hz, {1.0, 1000.0});
   c.truth_rate_hz = n.get<double>("truth_rate_hz", c.truth_rate_hz, {0.1, 100.0});
@@ -60,7 +67,7 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
       config_(std::move(config)),
       scenario_(std::move(scenario)),
       scene_(scenario_),
-      arm_(scenario_.arm, start_pose(scenario_.arm)),
+      arm_(scenario_.arm, start_pose(scenario_.arm), config_.reported_hand_eye),
       gripper_(scenario_.gripper),
       ir_(scenario_.ir, scenario_.seed + 3),
       fixed_renderer_(scenario_.fixed_camera.model, scenario_.fixed_camera.noise_std, scenario_.seed + 1),
@@ -142,7 +149,7 @@ void SimNode::attach_devices() {
   const DevicesConfig& d = *config_.devices;
   bus_ = can::open_bus(d.bus);  // throws CanError with the reason
   device_arm_ = std::make_unique<DeviceArm>(*bus_, d.model, d.drives, device_arm_start_,
-                                            to_isometry(scenario_.arm.mounting), scenario_.arm.hand_camera_offset);
+                                            to_isometry(scenario_.arm.mounting), scenario_.arm.hand_eye);
   if (bus_->fd() >= 0) ctx().watch_fd(bus_->fd(), [this] { device_arm_->drain(now()); });
   every(d.drive_step_us, [this] {
     device_arm_->drain(now());

@@ -37,6 +37,10 @@ struct SimConfig {
   int run = 0;
   std::string hardware = "direct";       // "direct" or "devices" (see docs/simulator.md)
   std::optional<DevicesConfig> devices;  // hardware "devices": drives, bus and board
+  // Hardware "direct": the software's camera-in-hand calibration (the file the
+  // robot link's arm model reads), for the camera pose in the ROBOT_STATE the
+  // simulator publishes in the robot link's place.
+  Placement reported_hand_eye;
   double physics_rate_hz = 100.0;
   double robot_state_rate_hz = 100.0;
   double truth_rate_hz = 20.0;

@@ -5,31 +5,11 @@
 
 #include "config/config.hpp"
 #include "geometry/pose_msg.hpp"
+#include "geometry/transform_file.hpp"
 
 namespace harvest::vision {
 
 namespace {
-
-// allow_reflection: the thesis's eq. 4-1 matrix has determinant -1 (its fixed
-// camera frame and base frame differ in handedness), and it is the contract.
-Eigen::Isometry3d read_transform(const config::Node& n, const std::string& rotation_key,
-                                 const std::string& translation_key, const Eigen::Isometry3d& fallback,
-                                 bool allow_reflection) {
-  // The default is written back row-major too (Eigen's own storage is column-major).
-  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r0 = fallback.linear();
-  const Eigen::Vector3d t0 = fallback.translation() * 1000.0;
-  const std::vector<double> r = n.numbers(rotation_key, std::vector<double>(r0.data(), r0.data() + 9), 9);
-  const std::vector<double> t = n.numbers(translation_key, {t0.x(), t0.y(), t0.z()}, 3);
-  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
-  // Row-major in the file, as written on paper.
-  out.linear() << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
-  if ((out.linear() * out.linear().transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-3)
-    n.fail(rotation_key, "an orthonormal 3x3 matrix, row-major");
-  if (!allow_reflection && out.linear().determinant() < 0)
-    n.fail(rotation_key, "a rotation matrix (determinant +1), row-major");
-  out.translation() = Eigen::Vector3d(t[0], t[1], t[2]) / 1000.0;
-  return out;
-}
 
 CameraModel read_camera(const config::Node& n, const std::string& fallback) {
   const auto path = n.file_path("calibration", fallback);
@@ -55,11 +35,17 @@ ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
   ReconstructorConfig c;
   const config::Node fixed = n.child("camera_fixed");
   c.fixed_camera = read_camera(fixed, "config/cameras/fixed.yaml");
-  c.fixed_extrinsic = read_transform(fixed, "extrinsic_rotation", "extrinsic_translation_mm", c.fixed_extrinsic, true);
+  // The thesis's eq. 4-1 matrix has determinant -1 (its fixed camera frame
+  // and base frame differ in handedness), and it is the contract.
+  const auto extrinsic = fixed.file_path("extrinsic", "config/cameras/fixed_extrinsic.yaml");
+  try {
+    c.fixed_extrinsic = geometry::load_transform_file(extrinsic, geometry::Handedness::kReflectionAllowed);
+  } catch (const std::exception& e) {
+    fixed.fail("extrinsic", std::string("a readable extrinsic calibration (") + e.what() + ")");
+  }
   c.fixed_extrinsic_sigma_m = fixed.get("extrinsic_sigma_m", c.fixed_extrinsic_sigma_m, {0.0, 1.0});
   const config::Node hand = n.child("camera_hand");
   c.hand_camera = read_camera(hand, "config/cameras/hand.yaml");
-  c.hand_eye = read_transform(hand, "hand_eye_rotation", "hand_eye_translation_mm", c.hand_eye, false);
   c.hand_pose_sigma_m = hand.get("pose_sigma_m", c.hand_pose_sigma_m, {0.0, 1.0});
   c.max_state_gap_us = 1000 * hand.get<int64_t>("max_state_gap_ms", c.max_state_gap_us / 1000, {1, 10'000});
   const config::Node fruit = n.child("fruit");
@@ -83,7 +69,7 @@ Reconstructor::Reconstructor(ReconstructorConfig config)
       associator_(config_.association_gate_chi2) {}
 
 void Reconstructor::on_robot_state(const robot_state_t& state) {
-  tool_poses_.add(state.header.utime, geometry::to_isometry(state.tool_pose));
+  camera_poses_.add(state.header.utime, geometry::to_isometry(state.camera_pose));
 }
 
 targets_t Reconstructor::make_targets(const fruit_detections_t& d, const CameraModel& cam,
@@ -192,8 +178,8 @@ std::optional<targets_t> Reconstructor::on_hand(const fruit_detections_t& d) {
     last_error_ = *err;
     return std::nullopt;
   }
-  const auto tool = tool_poses_.at(d.header.utime, config_.max_state_gap_us);
-  if (!tool) {
+  const auto camera = camera_poses_.at(d.header.utime, config_.max_state_gap_us);
+  if (!camera) {
     last_error_ = "no robot state within " + std::to_string(config_.max_state_gap_us / 1000) +
                   " ms of hand image time " + std::to_string(d.header.utime);
     return std::nullopt;
@@ -201,8 +187,7 @@ std::optional<targets_t> Reconstructor::on_hand(const fruit_detections_t& d) {
   const std::vector<int32_t> hand_ids = hand_tracker_.update(observations(d));
   associator_.prune(hand_tracker_);
   std::vector<Estimate3d> estimates;
-  targets_t out =
-      make_targets(d, config_.hand_camera, *tool * config_.hand_eye, config_.hand_pose_sigma_m, "hand", estimates);
+  targets_t out = make_targets(d, config_.hand_camera, *camera, config_.hand_pose_sigma_m, "hand", estimates);
   const auto global = associator_.associate(hand_ids, estimates, known_);
   for (std::size_t i = 0; i < hand_ids.size(); ++i)
     out.targets[i].fruit_id = global[i] ? *global[i] : kUnassociatedIdBase + hand_ids[i];

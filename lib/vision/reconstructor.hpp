@@ -3,8 +3,9 @@
 // fruit identity (see docs/perception.md).
 //
 // Fixed camera: p_base = R_ef p_cam + T_ef (eq. 4-1, 6-13); its pixel tracks
-// give the global fruit ids. Camera-in-hand: p_base = T_base_tool(t) T_tool_cam
-// p_cam with the tool pose interpolated at the image time; its detections take
+// give the global fruit ids. Camera-in-hand: p_base = T_base_cam(t) p_cam with
+// the camera pose of ROBOT_STATE (the robot link's T_base_tool(t) T_tool_cam,
+// T_tool_cam the hand-eye calibration) interpolated at the image time; its detections take
 // the global id of the fixed-camera fruit they match in 3D, or 100000 + their
 // hand track id when they match none.
 #pragma once
@@ -37,7 +38,6 @@ struct ReconstructorConfig {
   Eigen::Isometry3d fixed_extrinsic = thesis_fixed_camera_extrinsic();  // camera -> base
   double fixed_extrinsic_sigma_m = 0.03;                                // calibration error, isotropic 1 sigma
   CameraModel hand_camera;
-  Eigen::Isometry3d hand_eye = Eigen::Isometry3d::Identity();  // camera -> tool
   double hand_pose_sigma_m = 0.005;
   int64_t max_state_gap_us = 100'000;  // robot states around an image at most this far apart
   FruitStatistics fruit;
@@ -70,7 +70,7 @@ class Reconstructor {
                          double transform_sigma, const std::string& camera, std::vector<Estimate3d>& estimates) const;
 
   ReconstructorConfig config_;
-  PoseHistory tool_poses_;
+  PoseHistory camera_poses_;  // ROBOT_STATE.camera_pose
   PixelTracker fixed_tracker_, hand_tracker_;
   HandAssociator associator_;
   std::map<int32_t, Estimate3d> known_;

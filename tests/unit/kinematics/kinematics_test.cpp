@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 
 #include "kinematics/diff_ik.hpp"
@@ -96,8 +99,63 @@ TEST(ForwardKinematics, K1207iStraightAndElbowBent) {
   EXPECT_NEAR((t.translation() - shoulder - Eigen::Vector3d(-0.55, 0.55 + 0.17 + 0.1905, 0)).norm(), 0.0, 1e-12)
       << t.translation().transpose();
   EXPECT_NEAR((t.linear().col(2) - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-12);
-  // The hand camera sits at the gripper centre, looking along the tool axis.
-  EXPECT_TRUE(camera_pose(m, q).isApprox(t, 1e-12));
+  // The hand camera: config/cameras/hand_eye.yaml, 15 mm along tool x, -10 mm
+  // along tool y and 40 mm behind the tool point, axes parallel to the tool's.
+  const Eigen::Isometry3d c = camera_pose(m, q);
+  EXPECT_NEAR((c.translation() - (t.translation() + t.linear() * Eigen::Vector3d(0.015, -0.010, -0.040))).norm(), 0.0,
+              1e-12);
+  EXPECT_TRUE(c.linear().isApprox(t.linear(), 1e-12));
+}
+
+// Flange, tool offset and the hand-eye calibration compose in that order
+// (camera = flange * tool * hand_eye). Hand-worked on the planar arm at
+// q = (90, 0) deg: flange at (0, 0.8, 0) turned 90 deg about z; tool 0.1 m
+// along the flange x: (0, 0.9, 0); camera 20 mm along the tool y, turned
+// another 90 deg: (0, 0.9, 0) + Rz(90) (0, 0.02, 0) = (-0.02, 0.9, 0), turned
+// 180 deg. The other order (hand_eye * tool) would put it at (-0.9, 0.02, 0).
+TEST(ForwardKinematics, HandCameraIsFlangeThenToolThenHandEye) {
+  const auto file = std::filesystem::temp_directory_path() / ("hand_eye_" + std::to_string(::getpid()) + ".yaml");
+  {
+    std::ofstream out(file);
+    out << "rotation: [0, -1, 0, 1, 0, 0, 0, 0, 1]\ntranslation_mm: [0, 20, 0]\n";
+  }
+  const ArmModel m = from_text(R"(
+joints:
+  - {name: j1, a: 0.5, min_deg: -170, max_deg: 170, max_velocity_deg_s: 90, max_acceleration_deg_s2: 180}
+  - {name: j2, a: 0.3, min_deg: -170, max_deg: 170, max_velocity_deg_s: 90, max_acceleration_deg_s2: 180}
+tool: {position: [0.1, 0, 0]}
+camera: {calibration: )" + file.string() +
+                               R"(}
+home_deg: [0, 0]
+)");
+  std::filesystem::remove(file);
+  const Eigen::Isometry3d c = camera_pose(m, (Eigen::VectorXd(2) << 90 * kDeg, 0.0).finished());
+  EXPECT_NEAR((c.translation() - Eigen::Vector3d(-0.02, 0.9, 0.0)).norm(), 0.0, 1e-12) << c.translation().transpose();
+  EXPECT_NEAR((c.linear() - Eigen::Vector3d(-1, -1, 1).asDiagonal().toDenseMatrix()).norm(), 0.0, 1e-12);
+}
+
+TEST(ArmModel, HandEyeCalibrationFileIsCheckedAndExclusive) {
+  const std::string joints = R"(
+joints:
+  - {name: j1, a: 0.5, min_deg: -170, max_deg: 170, max_velocity_deg_s: 90, max_acceleration_deg_s2: 180}
+home_deg: [0]
+)";
+  try {
+    from_text(joints + "camera: {calibration: /nonexistent/hand_eye.yaml}\n");
+    ADD_FAILURE() << "a missing calibration file was accepted";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/hand_eye.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(from_text(joints + "camera: {calibration: config/cameras/hand_eye.yaml, position: [0, 0, 0]}\n"),
+               config::Error);
+  // A mirror is no camera mounting: the hand-eye must be a proper rotation.
+  const auto file = std::filesystem::temp_directory_path() / ("mirror_" + std::to_string(::getpid()) + ".yaml");
+  {
+    std::ofstream out(file);
+    out << "rotation: [1, 0, 0, 0, 1, 0, 0, 0, -1]\ntranslation_mm: [0, 0, 0]\n";
+  }
+  EXPECT_THROW(from_text(joints + "camera: {calibration: " + file.string() + "}\n"), config::Error);
+  std::filesystem::remove(file);
 }
 
 TEST(Jacobian, MatchesFiniteDifferences) {

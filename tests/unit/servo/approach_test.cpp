@@ -34,7 +34,7 @@ TEST(ReconstructionApproach, AdvancesNoFasterThanTheCentringConverges) {
   g.centring_tolerance = 0.005;
   ReconstructionApproach a(g, pinhole());
   const ApproachOutput out = a.update(at_fruit(0.02, pinhole(), 0.3));
-  EXPECT_NEAR(out.error_camera.x(), 0.02, 1e-9);
+  EXPECT_NEAR(out.error.x(), 0.02, 1e-9);
   EXPECT_NEAR(out.twist.linear.z(), 2.0 * 0.1 / std::log(4.0), 1e-9);
   EXPECT_NEAR(out.twist.linear.x(), 2.0 * 0.02, 1e-9);  // eq. 6-25 centring unchanged
   // Eq. 6-27 outside the IR phase is bounded the same way (kp_depth 1: 0.1 m/s
@@ -78,12 +78,55 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
     return out;
   };
   const ApproachOutput mean = follow(g, 0.1);
-  EXPECT_LT(std::abs(mean.error_camera.x()), 0.001);  // the middle of the sway (the window's 76 samples: not exactly 0)
+  EXPECT_LT(std::abs(mean.error.x()), 0.001);  // the middle of the sway (the window's 76 samples: not exactly 0)
   EXPECT_LT(std::abs(mean.twist.linear.x()), 0.002);
   // Before IR guidance, and with no window, the newest position: the crest.
-  EXPECT_NEAR(follow(g, std::nullopt).error_camera.x(), 0.015, 1e-6);
+  EXPECT_NEAR(follow(g, std::nullopt).error.x(), 0.015, 1e-6);
   g.sway_window = 0.0;
-  EXPECT_NEAR(follow(g, 0.1).error_camera.x(), 0.015, 1e-6);
+  EXPECT_NEAR(follow(g, 0.1).error.x(), 0.015, 1e-6);
+}
+
+// The camera beside the gripper axis and tilted (hand-eye not the identity):
+// the fruit is centred on the gripper axis, not on the optical axis.
+// Hand-worked: tool at the origin looking along base z; camera 20 mm along
+// tool x, 40 mm behind the tool point, turned 2 deg about tool y; fruit on
+// the tool axis 0.2 m ahead. In the camera frame the fruit is at
+// R^T (p - c) = Ry(-2 deg) (-0.02, 0, 0.24): x = -0.02 cos 2 - 0.24 sin 2 =
+// -0.02836 m, z = -0.02 sin 2 + 0.24 cos 2 = 0.23916 m, so its pixel is
+// off-centre by fx * x / z, yet there is nothing to correct: the lateral
+// error is zero and the twist goes straight along the gripper axis. Composed
+// the wrong way round (camera pose taken as hand-eye * tool, or the
+// camera-frame error used as is) the same pixel asks for a 28 mm correction.
+TEST(ReconstructionApproach, CentresTheFruitOnTheGripperAxisNotTheCameraAxis) {
+  Gains g;
+  g.kp_lateral = 2.0;
+  g.kd_lateral = 0.0;
+  g.centring_tolerance = 0.0;
+  ReconstructionApproach a(g, pinhole());
+  const double s = std::sin(2.0 * std::numbers::pi / 180), c = std::cos(2.0 * std::numbers::pi / 180);
+  ApproachInput in;
+  in.tool = Eigen::Isometry3d::Identity();
+  in.camera = Eigen::Isometry3d::Identity();
+  in.camera.linear() = Eigen::AngleAxisd(2.0 * std::numbers::pi / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  in.camera.translation() << 0.02, 0.0, -0.04;
+  in.fruit_base = Eigen::Vector3d(0.0, 0.0, 0.2);
+  const double x = -0.02 * c - 0.24 * s, z = -0.02 * s + 0.24 * c;
+  EXPECT_NEAR(x, -0.02836, 1e-5);
+  in.pixel = PixelMeasurement{pinhole().u0 + pinhole().fx * x / z, pinhole().v0, 1};
+  const ApproachOutput out = a.update(in);
+  EXPECT_NEAR(out.error.x(), 0.0, 1e-9);
+  EXPECT_NEAR(out.error.y(), 0.0, 1e-9);
+  EXPECT_NEAR(out.error.z(), 0.2, 1e-9);  // ahead of the tool point
+  EXPECT_NEAR(out.twist.linear.x(), 0.0, 1e-9);
+  EXPECT_GT(out.twist.linear.z(), 0.0);
+  // A fruit 10 mm beside the gripper axis (tool x) is corrected toward +x,
+  // in the tool frame: kp * 0.01 = 0.02 m/s along base x.
+  ReconstructionApproach b(g, pinhole());
+  in.fruit_base = Eigen::Vector3d(0.01, 0.0, 0.2);
+  const Eigen::Vector3d pc = in.camera.inverse() * in.fruit_base;
+  in.pixel =
+      PixelMeasurement{pinhole().u0 + pinhole().fx * pc.x() / pc.z(), pinhole().v0 + pinhole().fy * pc.y() / pc.z(), 1};
+  EXPECT_NEAR(b.update(in).twist.linear.x(), 0.02, 1e-9);
 }
 
 }  // namespace

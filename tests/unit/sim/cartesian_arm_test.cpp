@@ -23,7 +23,7 @@ void run(CartesianArm& arm, double from, double to) {
 
 TEST(CartesianArm, FollowsTwistsWithinTheSpeedAndAccelerationLimits) {
   ArmSetup setup;
-  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()});
+  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()}, {});
   arm.command(twist(0.0, 1.0, 0.0, 10'000'000), 0.0);  // asks for more than the limit
   run(arm, 0.0, 0.1);
   EXPECT_NEAR(arm.linear_velocity().y(), setup.max_linear_accel * 0.1, 0.02);
@@ -34,7 +34,7 @@ TEST(CartesianArm, FollowsTwistsWithinTheSpeedAndAccelerationLimits) {
 
 TEST(CartesianArm, StopsWhenTheCommandGoesStale) {
   ArmSetup setup;
-  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()});
+  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()}, {});
   arm.command(twist(0.1, 0.0, 0.0), 0.0);
   run(arm, 0.0, 0.09);
   EXPECT_GT(arm.linear_velocity().x(), 0.05);
@@ -46,7 +46,7 @@ TEST(CartesianArm, StopsWhenTheCommandGoesStale) {
 
 TEST(CartesianArm, ReachesAPoseGoalAndRefusesJointGoals) {
   ArmSetup setup;
-  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()});
+  CartesianArm arm(setup, {Mat3::Identity(), Vec3::Zero()}, {});
   robot_command_t goal{};
   goal.type = robot_command_t::TYPE_POSE_GOAL;
   const Mat3 r = look_at_rotation(Vec3::Zero(), Vec3(1, 1, 0));
@@ -69,6 +69,28 @@ TEST(CartesianArm, ReachesAPoseGoalAndRefusesJointGoals) {
   arm.fill_state(s, 5.0);
   EXPECT_NEAR(s.tool_pose.position[0], 0.2, 1e-3);
   EXPECT_EQ(s.num_limit_events, 1);
+}
+
+// The camera the simulator renders with is the truth (tool * scenario
+// hand-eye); the camera pose it reports on ROBOT_STATE in the robot link's
+// place is the software's belief (tool * reported hand-eye). Hand-worked with
+// the tool at (1, 2, 3) turned 90 deg about z: truth 10 mm along tool x ->
+// (1, 2.01, 3); belief 20 mm along tool y, turned 90 deg about tool z ->
+// (0.98, 2, 3), turned 180 deg.
+TEST(CartesianArm, RendersTheTrueCameraAndReportsTheSoftwaresHandEye) {
+  ArmSetup setup;
+  setup.hand_eye = {Mat3::Identity(), Vec3(0.01, 0.0, 0.0)};
+  const Mat3 rz90 = Eigen::AngleAxisd(3.14159265358979323846 / 2, Vec3::UnitZ()).toRotationMatrix();
+  CartesianArm arm(setup, {rz90, Vec3(1, 2, 3)}, {rz90, Vec3(0.0, 0.02, 0.0)});
+  EXPECT_NEAR((arm.hand_camera().position - Vec3(1, 2.01, 3)).norm(), 0.0, 1e-12);
+  EXPECT_TRUE(arm.hand_camera().rotation.isApprox(rz90, 1e-12));
+  robot_state_t s;
+  arm.fill_state(s, 0.0);
+  EXPECT_NEAR(
+      (Vec3(s.camera_pose.position[0], s.camera_pose.position[1], s.camera_pose.position[2]) - Vec3(0.98, 2, 3)).norm(),
+      0.0, 1e-12);
+  // Turned 180 deg about z: quaternion (0, 0, 0, +-1).
+  EXPECT_NEAR(std::abs(s.camera_pose.orientation[3]), 1.0, 1e-12);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <numbers>
 
 #include "can/memory_bus.hpp"
 #include "canopen/master.hpp"
@@ -103,6 +104,13 @@ TEST(Devices, EveryShippedScenarioStartsWhereTheArmCanBe) {
   EXPECT_GE(starts, 5);
 }
 
+Placement hand_eye() {
+  Placement p;
+  p.rotation = Eigen::AngleAxisd(std::numbers::pi / 2, Vec3::UnitZ()).toRotationMatrix();
+  p.position = Vec3(0.0, 0.01, -0.04);
+  return p;
+}
+
 // The arm's drives against the robot link's CANopen master on an in-memory bus.
 class DeviceArmOnBus : public ::testing::Test {
  protected:
@@ -111,8 +119,7 @@ class DeviceArmOnBus : public ::testing::Test {
     for (const auto& d : config_.drives) mc.drives.push_back({d.node_id, d.counts_per_radian, d.zero_offset_counts});
     master_ = std::make_unique<canopen::Master>(master_bus_, mc);
     q0_ = start_joints(config_.model, mounting_error(), scenario_start("tree")).q;
-    arm_ = std::make_unique<DeviceArm>(arm_bus_, config_.model, config_.drives, q0_, mounting_error(),
-                                       Vec3(0.0, 0.01, 0.0));
+    arm_ = std::make_unique<DeviceArm>(arm_bus_, config_.model, config_.drives, q0_, mounting_error(), hand_eye());
   }
 
   void run(double seconds) {
@@ -165,9 +172,17 @@ TEST_F(DeviceArmOnBus, ToolIsTheForwardKinematicsOfTheDrivesAtTheTrueMounting) {
   const Eigen::Isometry3d expected = mounting_error() * kinematics::tool_pose(config_.model, q);
   EXPECT_LT((arm_->tool().position - expected.translation()).norm(), 1e-9);
   EXPECT_GT((arm_->tool().position - start.position).norm(), 0.02);
-  // The hand camera rides on the flange with the scenario's offset.
-  const Eigen::Isometry3d cam = mounting_error() * kinematics::camera_pose(config_.model, q);
-  EXPECT_LT((arm_->hand_camera().position - (cam.translation() + cam.linear() * Vec3(0.0, 0.01, 0.0))).norm(), 1e-9);
+  // The true hand camera rides on the tool with the scenario's hand-eye
+  // (10 mm along tool y, 40 mm behind the tool point, turned 90 deg about the
+  // tool axis), whatever the arm model's (the software's) camera says.
+  const Placement& tool = arm_->tool();
+  EXPECT_LT((arm_->hand_camera().position - (tool.position + tool.rotation * Vec3(0.0, 0.01, -0.04))).norm(), 1e-9);
+  EXPECT_LT((arm_->hand_camera().rotation.col(0) - tool.rotation.col(1)).norm(), 1e-9);
+  EXPECT_LT((arm_->hand_camera().rotation.col(2) - tool.rotation.col(2)).norm(), 1e-9);
+  EXPECT_GT(
+      (arm_->hand_camera().position - (mounting_error() * kinematics::camera_pose(config_.model, q)).translation())
+          .norm(),
+      0.005);
 }
 
 TEST(BoardGripper, BoardCommandsDriveTheSimulatedGripper) {

@@ -1,8 +1,10 @@
+#include "sim/scenario.hpp"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
-#include "sim/scenario.hpp"
+#include "geometry/transform_file.hpp"
 #include "sim/scene.hpp"
 
 namespace harvest::sim {
@@ -52,6 +54,59 @@ TEST(Scenario, RejectsUnknownKeysAndBadValues) {
   expect_error("name: t\nfruit_size: {min_mm: 80, max_mm: 70}\n", "max_mm");
   expect_error("name: t\ncameras: {fixed_extrinsic_truth: {rotation: [1, 0, 0, 0, 2, 0, 0, 0, 1]}}\n", "rotation");
   expect_error("name: t\nfruit:\n  - {position_mm: [1, 2]}\n", "position_mm");
+}
+
+// The simulator's true fixed-camera extrinsic (eq. 4-1's rotation, a
+// translation worked out from table 6-3's one fruit: T = p_base - R p_cam =
+// (-241.3, 228.6, -400.5) mm) against the fruit the thesis measured
+// independently in both frames in tables 6-7 and 6-9. Hand-worked, in mm:
+//   6-7 #1 (139.7, -25.7, 787.4)    -> (-267.0, 1016.0, -540.2), table (-266.7, 1016.0, -540.2)
+//   6-7 #2 (-25.4, 172.72, 938.8)   -> (-68.58, 1167.4, -375.1), table (-68.6, 1168.4, -375.1)
+//   6-9 #1 (139.7, -25.4, 787.4)    -> (-266.7, 1016.0, -540.2), table the same
+//   6-9 #3 (127.9, -171.6, 782.55)  -> (-412.9, 1011.15, -528.4), table (-412.6, 1011.4, -528.9)
+// so every one within 1.05 mm (the tables' rounding and the thesis's tape).
+TEST(Scenario, FixedCameraTruthMatchesTheThesisTablesItWasNotFittedTo) {
+  struct Row {
+    Vec3 cam_mm, base_mm, worked_mm;
+  };
+  const Row rows[] = {
+      {{139.7, -25.7, 787.4}, {-266.7, 1016.0, -540.2}, {-267.0, 1016.0, -540.2}},
+      {{-25.4, 172.72, 938.8}, {-68.6, 1168.4, -375.1}, {-68.58, 1167.4, -375.1}},
+      {{139.7, -25.4, 787.4}, {-266.7, 1016.0, -540.2}, {-266.7, 1016.0, -540.2}},
+      {{127.9, -171.6, 782.55}, {-412.6, 1011.4, -528.9}, {-412.9, 1011.15, -528.4}},
+  };
+  for (const char* name : {"experiment1", "experiment2", "experiment3", "tree", "tree_wind"}) {
+    SCOPED_TRACE(name);
+    const Placement t = load_scenario(std::string("config/scenarios/") + name + ".yaml").fixed_camera_truth;
+    for (const Row& r : rows) {
+      const Vec3 base = (t.rotation * r.cam_mm * 1e-3 + t.position) * 1e3;
+      EXPECT_NEAR((base - r.worked_mm).norm(), 0.0, 1e-9) << base.transpose();
+      EXPECT_LT((base - r.base_mm).norm(), 1.05) << base.transpose();
+    }
+  }
+}
+
+// The true camera-in-hand pose differs from the identity, and from what the
+// software believes (config/cameras/hand_eye.yaml), as on a real gripper.
+TEST(Scenario, HandEyeTruthIsNotTheIdentityNorTheSoftwaresEstimate) {
+  const auto doc = config::Document::load_string(
+      "name: t\narm: {hand_eye_truth: {translation_mm: [1, 2, 3], rpy_deg: [0, 0, 90]}}\n");
+  const Scenario custom = Scenario::from_config(doc.root());
+  doc.check_unused();
+  EXPECT_NEAR((custom.arm.hand_eye.position - Vec3(0.001, 0.002, 0.003)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((custom.arm.hand_eye.rotation * Vec3::UnitX() - Vec3::UnitY()).norm(), 0.0, 1e-12);
+  const Eigen::Isometry3d software =
+      geometry::load_transform_file("config/cameras/hand_eye.yaml", geometry::Handedness::kProper);
+  constexpr double kDeg = 3.14159265358979323846 / 180;
+  for (const auto& e : std::filesystem::directory_iterator("config/scenarios")) {
+    if (e.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(e.path().string());
+    const Placement he = load_scenario(e.path().string()).arm.hand_eye;
+    EXPECT_GT(he.position.norm(), 0.01);
+    EXPECT_GT(Eigen::AngleAxisd(he.rotation).angle(), 1.0 * kDeg);
+    EXPECT_GT((he.position - software.translation()).norm(), 0.005);
+    EXPECT_GT(Eigen::AngleAxisd(he.rotation.transpose() * software.linear()).angle(), 1.0 * kDeg);
+  }
 }
 
 TEST(Scene, RandomTreeIsSeededAndRespectsTheSizeDistribution) {

@@ -54,6 +54,23 @@ double last_truth_s(const std::vector<std::pair<double, std::string>>& statuses)
   return last;
 }
 
+// Direct mode reports the camera pose as the robot link would: with the
+// software's hand-eye file (default config/cameras/hand_eye.yaml), which must
+// be readable.
+TEST(SimConfig, ReadsTheSoftwaresHandEyeForTheReportedCameraPose) {
+  auto doc = config::Document::load_string("scenario: config/scenarios/experiment1.yaml\n");
+  const SimConfig c = SimConfig::from_config(doc.root());
+  EXPECT_NEAR(c.reported_hand_eye.position.z(), -0.040, 1e-12);
+  auto bad =
+      config::Document::load_string("scenario: config/scenarios/experiment1.yaml\nhand_eye: /nonexistent/he.yaml\n");
+  try {
+    SimConfig::from_config(bad.root());
+    ADD_FAILURE() << "a missing hand-eye file was accepted";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/he.yaml"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SimNode, WithNoControllerTheRunEndsOnceEveryCountedFruitIsDecidedAndTheGracePassed) {
   const double end = last_truth_s({});
   EXPECT_GE(end, 2.0);

@@ -1,10 +1,14 @@
 #include "vision/reconstructor.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 
 #include "config/config.hpp"
+#include "geometry/pose_msg.hpp"
 #include "vision/pose_history.hpp"
 #include "vision/reconstruction.hpp"
 #include "vision/tracking.hpp"
@@ -48,16 +52,17 @@ TEST(Reconstruction, DistortionIsUndone) {
   EXPECT_NEAR(e.position.x(), 0.12, 0.002);
 }
 
-TEST(Reconstruction, FixedCameraExtrinsicReproducesTable6_3) {
-  // Eq. 4-1 rotation with the table-consistent translation maps the fixed
-  // camera's point of table 6-3 to its base-frame point.
-  Eigen::Isometry3d t = thesis_fixed_camera_extrinsic();
-  t.translation() << -0.2413, 0.2286, -0.4005;
-  const Eigen::Vector3d base = t * Eigen::Vector3d(0.1397, 0.0127, 0.8382);
-  EXPECT_NEAR((base - Eigen::Vector3d(-0.2286, 1.0668, -0.5402)).norm(), 0.0, 1e-9);
-  // And eq. 4-1 itself.
-  const Eigen::Vector3d eq41 = thesis_fixed_camera_extrinsic() * Eigen::Vector3d(0, 0, 1);
-  EXPECT_NEAR((eq41 - Eigen::Vector3d(-0.254, 0.19685 + 1, -0.381)).norm(), 0.0, 1e-12);
+// Eq. 4-1 (p_base = R_ef p_cam + T_ef, T_ef = (-254, 196.85, -381) mm) on a
+// point worked by hand: p_cam = (100, -50, 900) mm; R_ef p_cam = (y, z, -x) =
+// (-50, 900, -100) mm; plus T_ef: (-304, 1096.85, -481) mm. (That the
+// simulator's truth agrees with the thesis's measured fruit positions is
+// checked in tests/unit/sim/scenario_test.cpp against tables 6-7 and 6-9.)
+TEST(Reconstruction, FixedCameraExtrinsicIsEq4_1) {
+  const Eigen::Isometry3d t = thesis_fixed_camera_extrinsic();
+  const Eigen::Vector3d base = t * Eigen::Vector3d(0.100, -0.050, 0.900);
+  EXPECT_NEAR((base - Eigen::Vector3d(-0.304, 1.09685, -0.481)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((t.inverse() * base - Eigen::Vector3d(0.100, -0.050, 0.900)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(t.linear().determinant(), -1.0, 1e-12);  // a reflection, as the thesis prints it
 }
 
 TEST(PoseHistory, InterpolatesAndRefusesGaps) {
@@ -117,15 +122,18 @@ fruit_detections_t detections(const std::string& camera, int64_t utime, std::vec
   return d;
 }
 
-robot_state_t state_at(int64_t utime, const Eigen::Isometry3d& tool) {
+// A robot state with the camera-in-hand at `camera`. The tool is elsewhere
+// (the camera sits 17 mm off the gripper axis, 48 mm behind the tool point,
+// tilted 3 degrees): the hand camera's pose is ROBOT_STATE's camera_pose, and
+// a reconstructor that placed the camera at the tool would miss by that much.
+robot_state_t state_at(int64_t utime, const Eigen::Isometry3d& camera) {
+  Eigen::Isometry3d tool_to_camera = Eigen::Isometry3d::Identity();
+  tool_to_camera.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d(1, -1, 0.5).normalized()).toRotationMatrix();
+  tool_to_camera.translation() << 0.014, -0.009, -0.048;
   robot_state_t s{};
   s.header.utime = utime;
-  const Eigen::Quaterniond q(tool.linear());
-  for (int i = 0; i < 3; ++i) s.tool_pose.position[i] = tool.translation()[i];
-  s.tool_pose.orientation[0] = q.w();
-  s.tool_pose.orientation[1] = q.x();
-  s.tool_pose.orientation[2] = q.y();
-  s.tool_pose.orientation[3] = q.z();
+  s.tool_pose = geometry::to_pose(camera * tool_to_camera.inverse());
+  s.camera_pose = geometry::to_pose(camera);
   return s;
 }
 
@@ -226,7 +234,9 @@ TEST_F(ExperimentII, TargetsCarryTheirCamerasPose) {
   const auto hand = r.on_hand(detections("hand", 2'000'000, {detection(config_.hand_camera, in_hand(f1), 0.07)}, 0));
   ASSERT_TRUE(hand) << r.last_error();
   ASSERT_TRUE(hand->camera_known);
-  EXPECT_TRUE(Eigen::Vector3d(hand->camera_position_base).isApprox((hand_ * config_.hand_eye).translation(), 1e-9));
+  EXPECT_TRUE(Eigen::Vector3d(hand->camera_position_base).isApprox(hand_.translation(), 1e-9));
+  const Eigen::Vector3d ph(hand->targets[0].position_base);
+  EXPECT_NEAR((hand_.inverse() * ph).normalized().dot(in_hand(f1).normalized()), 1.0, 1e-9);  // on the pixel's ray
 }
 
 TEST_F(ExperimentII, OtherFruitAloneDoesNotTakeTheChosenId) {
@@ -264,21 +274,29 @@ TEST(Reconstructor, BadDetectionsAreReportedNotUsed) {
   EXPECT_TRUE(r.known_fruit().empty());
 }
 
-TEST(ReconstructorConfig, LoadsShippedFileAndRejectsBadRotation) {
+TEST(ReconstructorConfig, LoadsShippedFileAndRejectsBadExtrinsic) {
   auto doc = config::Document::load_file("config/vision/reconstructor.yaml");
   const ReconstructorConfig c = ReconstructorConfig::from_yaml(doc.root());
   doc.check_unused();
   EXPECT_NEAR(c.fixed_extrinsic.translation().x(), -0.254, 1e-12);
   EXPECT_EQ(c.fixed_camera.width, 640);
-  auto bad = config::Document::load_string(
-      "camera_fixed:\n  calibration: config/cameras/fixed.yaml\n  extrinsic_rotation: [1, 0, 0, 0, 1, 0, 0, 0, 2]\n");
-  EXPECT_THROW(ReconstructorConfig::from_yaml(bad.root()), config::Error);
   // The thesis's eq. 4-1 matrix is a reflection (det -1) and is accepted for
-  // the fixed camera; a hand-eye transform must be a proper rotation.
+  // the fixed camera.
   EXPECT_NEAR(c.fixed_extrinsic.linear().determinant(), -1.0, 1e-12);
-  auto mirror = config::Document::load_string(
-      "camera_hand:\n  calibration: config/cameras/hand.yaml\n  hand_eye_rotation: [1, 0, 0, 0, 1, 0, 0, 0, -1]\n");
-  EXPECT_THROW(ReconstructorConfig::from_yaml(mirror.root()), config::Error);
+  const auto file = std::filesystem::temp_directory_path() / ("bad_extrinsic_" + std::to_string(::getpid()) + ".yaml");
+  {
+    std::ofstream out(file);
+    out << "rotation: [1, 0, 0, 0, 1, 0, 0, 0, 2]\ntranslation_mm: [0, 0, 0]\n";
+  }
+  auto bad = config::Document::load_string("camera_fixed:\n  extrinsic: " + file.string() + "\n");
+  try {
+    ReconstructorConfig::from_yaml(bad.root());
+    ADD_FAILURE() << "a non-orthonormal extrinsic was accepted";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("orthonormal"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(file);
   auto missing = config::Document::load_string("camera_fixed:\n  calibration: /nonexistent/cam.yaml\n");
   try {
     ReconstructorConfig::from_yaml(missing.root());
