@@ -3,7 +3,11 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <sched.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <limits>
 
@@ -31,6 +35,11 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.can = canopen::MasterConfig::from_config(root.child("can"));
   if (static_cast<int>(c.can.drives.size()) != c.model.dof())
     root.child("can").fail("drives", "one drive per joint of the arm model (" + std::to_string(c.model.dof()) + ")");
+  // The drives' own quick-stop ramp (written as 0x6085): what stops the arm
+  // when the link is gone, so it is ours to set, not the drive vendor's.
+  const double quick_stop = root.child("can").get<double>("quick_stop_deceleration_factor", 10.0, {0.5, 50.0});
+  for (std::size_t i = 0; i < c.can.drives.size(); ++i)
+    c.can.drives[i].quick_stop_deceleration = quick_stop * c.model.joints[i].max_acceleration;
   const auto lim = root.child("limits");
   c.limits.linear_speed = lim.get<double>("max_linear_speed", 0.381, {0.001, 2.0});
   c.limits.angular_speed = lim.get<double>("max_angular_speed", 1.0, {0.001, 5.0});
@@ -60,6 +69,7 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.orientation_gain = ctl.get<double>("orientation_gain", 5.0, {0.0, 100.0});
   c.joint_gain = ctl.get<double>("joint_gain", 5.0, {0.0, 100.0});
   c.enable_timeout = ctl.get<int>("enable_timeout_ms", 3000, {100, 60000}) * 1000;
+  c.realtime_priority = ctl.get<int>("realtime_priority", 0, {0, 99});
   return c;
 }
 
@@ -235,6 +245,16 @@ RobotLinkNode::RobotLinkNode(RobotLinkConfig config, std::unique_ptr<can::CanBus
 RobotLinkNode::~RobotLinkNode() = default;
 
 void RobotLinkNode::on_attach() {
+  if (config_.realtime_priority > 0) {
+    sched_param p{};
+    p.sched_priority = config_.realtime_priority;
+    if (::sched_setscheduler(0, SCHED_FIFO, &p) == 0)
+      spdlog::info("control loop at SCHED_FIFO priority {}", config_.realtime_priority);
+    else
+      spdlog::warn("control loop at normal priority: SCHED_FIFO {} refused ({}); a loaded computer may stall it "
+                   "past the drives' RPDO deadline",
+                   config_.realtime_priority, std::strerror(errno));
+  }
   if (!bus_) bus_ = can::open_bus(config_.bus);  // throws CanError with the reason
   restart_master();
   if (bus_->fd() >= 0) ctx().watch_fd(bus_->fd(), [this] { master_->drain(now()); });
@@ -249,6 +269,7 @@ void RobotLinkNode::on_attach() {
 
 void RobotLinkNode::restart_master() {
   master_ = std::make_unique<canopen::Master>(*bus_, config_.can);
+  mirrored_.clear();
   master_->start(now());
   master_->set_goal(DriveGoal::kEnabled);
   enable_started_ = now();
@@ -513,6 +534,10 @@ void RobotLinkNode::on_operator(const harvest::operator_command_t& msg) {
 
 void RobotLinkNode::supervise() {
   for (const auto& e : master_->take_events()) spdlog::error("drive: {}", e);
+  for (const auto& [name, value] : master_->counters()) {
+    count(name, value - mirrored_[name]);
+    mirrored_[name] = value;
+  }
   if (master_->phase() == MasterPhase::kFailed) supervisor_.on_fault(master_->error());
   if (master_->any_fault()) {
     // One entry per latched cause (the drive's text accumulates them), so the
@@ -527,6 +552,7 @@ void RobotLinkNode::supervise() {
       }
     }
   }
+  if (!master_->bus_fault().empty()) supervisor_.on_fault(master_->bus_fault());
   if (bus_->state() == can::BusState::kBusOff) supervisor_.on_fault("CAN bus off");
   const bool enabled = master_->all_in(Cia402State::kOperationEnabled);
   if (!enabled && supervisor_.may_move() && !shutting_down_ && !enable_timed_out_ &&
@@ -668,7 +694,11 @@ void RobotLinkNode::publish_state(const Eigen::VectorXd& cmd, Micros sampled) {
     if (d.emcy) flags |= kFlagEmcy;
     if (d.heartbeat_lost) flags |= kFlagHeartbeatLost;
     if (d.pdo_lost) flags |= kFlagPdoLost;
+    if (d.foreign) flags |= kFlagForeign;
+    if (d.nmt_left) flags |= kFlagNmtLeft;
+    if (d.uncommanded) flags |= kFlagUncommanded;
   }
+  if (!master_->bus_fault().empty()) flags |= kFlagForeign;
   s.tool_pose = geometry::to_pose(kinematics::tool_pose(config_.model, q_));
   s.camera_pose = geometry::to_pose(kinematics::camera_pose(config_.model, q_));
   const kinematics::Twist v = kinematics::tool_jacobian(config_.model, q_) * qd_;

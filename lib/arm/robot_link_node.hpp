@@ -8,6 +8,7 @@
 #include <harvest/operator_command_t.hpp>
 #include <harvest/robot_command_t.hpp>
 #include <harvest/robot_state_t.hpp>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -70,6 +71,11 @@ struct RobotLinkConfig {
   double orientation_gain = 5.0;
   double joint_gain = 5.0;
   Micros enable_timeout = 3'000'000;
+  // SCHED_FIFO priority of the control loop (1..99; 0 = normal scheduling).
+  // The drives quick-stop when the link's RPDOs stop for
+  // can.drive_rpdo_timeout_ms (25 ms): on a loaded computer a stalled loop
+  // would stop the arm. Needs root or CAP_SYS_NICE; refused, it is a warning.
+  int realtime_priority = 0;
   // A new pose goal whose Cartesian path the dry run finds stuck is solved
   // by IK and run in joint space (plan_pose_goal). Off: always Cartesian, as
   // before (tests compare the two).
@@ -96,6 +102,9 @@ enum FaultFlag : int32_t {
   kFlagRefused = 1 << 7,        // the last command was refused
   kFlagBus = 1 << 8,            // CAN bus / drive configuration failure
   kFlagEnableTimeout = 1 << 9,  // drives did not reach operation enabled in time
+  kFlagForeign = 1 << 10,       // frames on the bus we did not send: another master, forged PDOs
+  kFlagNmtLeft = 1 << 11,       // a drive's heartbeat says it left operational, or it rebooted
+  kFlagUncommanded = 1 << 12,   // a drive's CiA 402 state changed without a command
 };
 
 // ---- Control law, shared by the live loop and the pose-goal dry run.
@@ -240,6 +249,7 @@ class RobotLinkNode final : public rt::Node {
   RobotLinkConfig config_;
   std::unique_ptr<can::CanBus> bus_;
   std::unique_ptr<canopen::Master> master_;
+  std::map<std::string, int64_t> mirrored_;  // master_->counters() already counted in the heartbeat
   MotionSupervisor supervisor_;
   Eigen::VectorXd q_, qd_, last_cmd_;
   bool have_joints_ = false;

@@ -135,4 +135,14 @@ Cia402State apply_controlword(Cia402State state, uint16_t cw, uint16_t previous)
   return state;
 }
 
+bool commanded_transition(Cia402State from, Cia402State to, uint16_t last, uint16_t before) {
+  using S = Cia402State;
+  if (to == from || to == S::kFault || to == S::kFaultReactionActive) return true;
+  if (from == S::kNotReadyToSwitchOn && to == S::kSwitchOnDisabled) return true;
+  if (from == S::kFaultReactionActive && to == S::kFault) return true;
+  if (from == S::kQuickStopActive && to == S::kSwitchOnDisabled) return true;  // quick stop options 1-4 end there
+  if (from == S::kFault) return to == S::kSwitchOnDisabled && ((last | before) & controlword::kFaultReset);
+  return apply_controlword(from, last, before) == to || apply_controlword(from, before, before) == to;
+}
+
 }  // namespace harvest::canopen

@@ -24,11 +24,14 @@ namespace od {
 inline constexpr uint16_t kDeviceType = 0x1000;
 inline constexpr uint16_t kErrorRegister = 0x1001;
 inline constexpr uint16_t kDeviceName = 0x1008;
+inline constexpr uint16_t kHeartbeatConsumer = 0x1016;  // :01.. (producer node << 16) | time [ms]
 inline constexpr uint16_t kHeartbeatProducer = 0x1017;
+inline constexpr uint16_t kErrorBehaviour = 0x1029;  // :01 on a communication error: 0 pre-op, 1 none, 2 stopped
 inline constexpr uint16_t kRpdoComm = 0x1400;  // + n
 inline constexpr uint16_t kRpdoMap = 0x1600;
 inline constexpr uint16_t kTpdoComm = 0x1800;
 inline constexpr uint16_t kTpdoMap = 0x1A00;
+inline constexpr uint16_t kAbortConnectionOption = 0x6007;  // i16: 0 none, 1 fault, 2 disable voltage, 3 quick stop
 inline constexpr uint16_t kErrorCode = 0x603F;
 inline constexpr uint16_t kControlword = 0x6040;
 inline constexpr uint16_t kStatusword = 0x6041;
@@ -68,5 +71,13 @@ uint16_t next_controlword(Cia402State state, DriveGoal goal, uint16_t previous, 
 
 // The device's side: state after receiving `controlword` in `state`.
 Cia402State apply_controlword(Cia402State state, uint16_t controlword, uint16_t previous);
+
+// The master's check of a reported state change: true if going from `from`
+// to `to` follows from one of the last two controlwords it sent (`last`, and
+// `before` it: a TPDO may answer the SYNC before) or is one a drive makes on
+// its own (not ready -> switch on disabled, the end of a quick stop, fault
+// reaction -> fault, or into fault). Anything else (enabled, disabled or
+// stopped by someone else) is a state change without a command.
+bool commanded_transition(Cia402State from, Cia402State to, uint16_t last, uint16_t before);
 
 }  // namespace harvest::canopen

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,7 @@ struct DriveConfig {
   uint8_t node_id = 1;
   double counts_per_radian = 1.0;  // encoder counts per joint radian (gear included; sign = direction)
   int32_t zero_offset_counts = 0;  // counts at joint angle 0
+  double quick_stop_deceleration = 0.0;  // [rad/s^2] written to the drive (0x6085); 0 = the drive's own
 };
 
 struct MasterConfig {
@@ -39,6 +41,12 @@ struct MasterConfig {
   Micros pdo_timeout = 100'000;        // running drive sent no TPDO this long
   Micros sdo_timeout = 200'000;
   Micros boot_timeout = 2'000'000;  // a drive not answering at start is asked again for this long
+  // The master's own heartbeat (0x700 + master_node), which every drive
+  // consumes, and the drives' own protection (docs/can.md).
+  uint8_t master_node = 127;
+  uint16_t master_heartbeat_ms = 10;
+  uint16_t drive_heartbeat_timeout_ms = 50;  // drive: master's heartbeat lost -> quick stop (0x1016)
+  uint16_t drive_rpdo_timeout_ms = 25;       // drive: no RPDO1 this long -> quick stop (0x1400:05)
 
   // Reads the `can` mapping of a robot-link configuration; the drive list is
   // `drives` there or in the file `drives_file`. Throws config::Error.
@@ -59,15 +67,23 @@ struct DriveStatus {
   double position = 0.0;  // [rad]
   double velocity = 0.0;  // [rad/s]
   uint16_t controlword = 0;
-  double velocity_command = 0.0;  // [rad/s], as sent
-  uint16_t error_code = 0;        // last EMCY error code
+  uint16_t previous_controlword = 0;  // the one sent the SYNC before
+  double velocity_command = 0.0;      // [rad/s], as sent
+  uint16_t error_code = 0;            // last EMCY error code
+  int64_t tpdo1_count = 0;            // since this drive's start-up
+  int64_t syncs_at_start = 0;         // SYNCs sent before this drive's start-up
+  Micros supervise_from = 0;          // its PDO watchdog counts from here until its first TPDO
+  bool needs_startup = false;         // it left operational or rebooted: RESET_FAULT re-runs its start-up
   // Latched until clear_faults():
   bool fault = false;           // drive entered Fault / fault reaction
   bool emcy = false;            // EMCY with a non-zero error code
   bool heartbeat_lost = false;  // no heartbeat within the timeout
   bool pdo_lost = false;        // no TPDO within the timeout while running
+  bool nmt_left = false;        // its heartbeat says it left operational, or it rebooted
+  bool uncommanded = false;     // its CiA 402 state changed without a command
+  bool foreign = false;         // frames for or as this drive that we did not send
   std::string fault_text;
-  bool faulted() const { return fault || emcy || heartbeat_lost || pdo_lost; }
+  bool faulted() const { return fault || emcy || heartbeat_lost || pdo_lost || nmt_left || uncommanded || foreign; }
 };
 
 class Master {
@@ -89,7 +105,9 @@ class Master {
   DriveGoal goal() const { return goal_; }
   // Joint velocities [rad/s] to send; ignored for drives not in operation enabled.
   void set_velocities(const std::vector<double>& rad_per_s);
-  // Clears latched faults; drives in Fault are then reset on the way to the goal.
+  // Clears latched faults; drives in Fault are then reset on the way to the
+  // goal, and a drive that left operational or rebooted (needs_startup) has
+  // its start-up (configuration by SDO, NMT start) run again.
   void clear_faults();
   // NMT stop for every drive (last act on exit, after they are disabled).
   void stop_nodes();
@@ -99,16 +117,28 @@ class Master {
   const std::vector<DriveStatus>& drives() const { return drives_; }
   const MasterConfig& config() const { return config_; }
   bool any_fault() const;
+  // Traffic on the bus that no drive explains: another SYNC producer or NMT
+  // master. Latched until clear_faults(); empty when none.
+  const std::string& bus_fault() const { return bus_fault_; }
   bool all_in(Cia402State s) const;
   Micros last_sync() const { return last_sync_; }
   int64_t sync_count() const { return sync_count_; }
   // Faults latched since the last call (for logging), e.g. "joint 3 (node 3): EMCY 0x2310 current".
   std::vector<std::string> take_events();
+  // Every foreign frame, drive leaving operational, state change without a
+  // command and drive restart since construction (for the heartbeat counters).
+  const std::map<std::string, int64_t>& counters() const { return counters_; }
 
  private:
+  void start_drive(std::size_t drive, Micros now);
   void probe(std::size_t drive, Micros now);
   void configure_next(std::size_t drive, std::size_t step, Micros now);
+  void fail(std::size_t drive, const std::string& text);
   void latch(std::size_t i, bool DriveStatus::*flag, const std::string& text);
+  void latch_bus(const std::string& text);
+  void on_heartbeat(std::size_t i, NmtState state, Micros now);
+  void on_tpdo1(std::size_t i, uint16_t statusword, int32_t position, Micros now);
+  void on_foreign(const CanFrame& f);
   int index_of_node(uint8_t node) const;
   void send(const CanFrame& f);
 
@@ -117,16 +147,21 @@ class Master {
   SdoClient sdo_;
   std::vector<DriveStatus> drives_;
   std::vector<bool> heartbeat_armed_;  // per drive: configured, so its heartbeat is supervised
+  std::vector<bool> starting_;         // per drive: its start-up (probe, SDO configuration) is running
+  std::vector<Micros> start_began_;    // per drive: when its start-up began (boot timeout)
   MasterPhase phase_ = MasterPhase::kIdle;
   std::string error_;
   DriveGoal goal_ = DriveGoal::kDisabled;
   std::size_t configured_ = 0;
   Micros started_ = 0;
-  Micros configure_started_ = 0;
   Micros now_ = 0;  // time of the call being handled (SDO callbacks carry none)
   Micros last_sync_ = 0;
   int64_t sync_count_ = 0;
+  Micros next_heartbeat_ = 0;
+  bool stopping_nodes_ = false;  // stop_nodes() sent: drives leaving operational is expected
+  std::string bus_fault_;
   std::vector<std::string> events_;
+  std::map<std::string, int64_t> counters_;
 };
 
 }  // namespace harvest::canopen

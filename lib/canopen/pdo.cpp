@@ -23,12 +23,12 @@ std::optional<int32_t> decode_tpdo2(const CanFrame& f) {
   return static_cast<int32_t>(get_u32(&f.data[0]));
 }
 
-std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbeat_ms) {
+std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbeat_ms, const DriveProtection& p) {
   constexpr uint32_t kInvalid = 0x80000000u;
   const auto mapping = [](uint16_t index, uint8_t sub, uint8_t bits) {
     return (static_cast<uint32_t>(index) << 16) | (static_cast<uint32_t>(sub) << 8) | bits;
   };
-  return {
+  std::vector<SdoWrite> writes{
       {od::kModesOfOperation, 0, static_cast<uint8_t>(od::kModeCyclicSynchronousVelocity), 1},
       // RPDO1
       {od::kRpdoComm, 1, kInvalid | (cob::kRpdo1 + node), 4},
@@ -56,6 +56,13 @@ std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbe
       // Heartbeat producer
       {od::kHeartbeatProducer, 0, heartbeat_ms, 2},
   };
+  // Drive-side protection: the drive stops the joint itself when the master is gone.
+  if (p.quick_stop_deceleration > 0) writes.push_back({od::kQuickStopDeceleration, 0, p.quick_stop_deceleration, 4});
+  writes.push_back({od::kAbortConnectionOption, 0, static_cast<uint16_t>(p.abort_connection_option), 2});
+  if (p.rpdo_timeout_ms > 0) writes.push_back({od::kRpdoComm, 5, p.rpdo_timeout_ms, 2});
+  if (p.master_node > 0 && p.heartbeat_consumer_ms > 0)
+    writes.push_back({od::kHeartbeatConsumer, 1, (static_cast<uint32_t>(p.master_node) << 16) | p.heartbeat_consumer_ms, 4});
+  return writes;
 }
 
 }  // namespace harvest::canopen

@@ -31,10 +31,25 @@ struct SdoWrite {
   uint8_t size;  // bytes: 1, 2 or 4
 };
 
+// What a drive is told to do on its own when the master falls silent
+// (docs/can.md, "Drive-side protection"): it consumes the master's heartbeat
+// (CiA 301 0x1016), watches the deadline of its RPDO1 (CiA 301 0x1400:05,
+// the RPDO event timer: EMCY 0x8250 on expiry) and answers either loss with
+// the abort connection option (CiA 402 0x6007) quick stop, at its quick-stop
+// deceleration (0x6085). 0 leaves an item as the drive has it.
+struct DriveProtection {
+  uint8_t master_node = 0;                // whose heartbeat the drive consumes (0 = none)
+  uint16_t heartbeat_consumer_ms = 0;     // 0x1016:01 consumer time
+  uint16_t rpdo_timeout_ms = 0;           // 0x1400:05 RPDO1 event timer (deadline)
+  int16_t abort_connection_option = 3;    // 0x6007: 0 none, 1 fault, 2 disable voltage, 3 quick stop
+  uint32_t quick_stop_deceleration = 0;   // 0x6085 [counts/s^2]
+};
+
 // The writes, in order, that put a drive into cyclic synchronous velocity
-// mode with the default mapping and a heartbeat every `heartbeat_ms`. PDOs
-// are disabled (COB-ID bit 31) while their mapping is rewritten, as CiA 301
-// requires.
-std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbeat_ms);
+// mode with the default mapping, a heartbeat every `heartbeat_ms` and its own
+// protection. PDOs are disabled (COB-ID bit 31) while their mapping is
+// rewritten, as CiA 301 requires.
+std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbeat_ms,
+                                                  const DriveProtection& protection = {});
 
 }  // namespace harvest::canopen

@@ -112,7 +112,9 @@ std::string describe_emcy(uint16_t code) {
       what = "additional modules";
       break;
     case 0x8:
-      what = (code & 0xFF00) == 0x8100   ? "communication"
+      what = code == 0x8130               ? "heartbeat error (the drive lost the master's heartbeat)"
+             : code == 0x8250             ? "RPDO timeout (the drive's commands stopped coming)"
+             : (code & 0xFF00) == 0x8100   ? "communication"
              : (code & 0xFF00) == 0x8600 ? "positioning controller (following error)"
                                          : "monitoring";
       break;

@@ -21,11 +21,24 @@ uint32_t u32(const std::vector<uint8_t>& v) {
 
 SimDrive::SimDrive(SimDriveConfig config, std::function<void(const CanFrame&)> sink)
     : config_(config), send_(std::move(sink)), position_(config.initial_position) {
+  build_dictionary();
+}
+
+void SimDrive::build_dictionary() {
+  // The object dictionary at power-on (and after an NMT reset): the defaults
+  // of a drive nobody has configured yet.
+  od_ = canopen::ObjectDictionary();
   const uint8_t id = config_.node_id;
   od_.add_u32(od::kDeviceType, 0, od::kDeviceTypeCia402, false);
   od_.add_u8(od::kErrorRegister, 0, 0, false);
   od_.add_string(od::kDeviceName, 0, "harvest simulated CiA 402 drive", false);
   od_.add_u16(od::kHeartbeatProducer, 0, 0, true);
+  od_.add_u8(od::kHeartbeatConsumer, 0, 1, false);
+  od_.add_u32(od::kHeartbeatConsumer, 1, 0, true);  // (producer node << 16) | time [ms]; 0 = off
+  od_.add_u8(od::kErrorBehaviour, 0, 1, false);
+  od_.add_u8(od::kErrorBehaviour, 1, 0, true, [](const std::vector<uint8_t>& v) {
+    return v[0] <= 2 ? 0u : sdo::kAbortValueRange;
+  });
   // PDO communication and mapping parameters; mapped objects must exist and fit in 8 bytes.
   const auto mappable = [this](const std::vector<uint8_t>& v) -> uint32_t {
     const uint32_t m = u32(v);
@@ -38,6 +51,7 @@ SimDrive::SimDrive(SimDriveConfig config, std::function<void(const CanFrame&)> s
   for (uint16_t n = 0; n < 2; ++n) {
     od_.add_u32(static_cast<uint16_t>(od::kRpdoComm + n), 1, 0x80000000u | (cob::kRpdo1 + 0x100u * n + id), true);
     od_.add_u8(static_cast<uint16_t>(od::kRpdoComm + n), 2, 0xFF, true);
+    od_.add_u16(static_cast<uint16_t>(od::kRpdoComm + n), 5, 0, true);  // event timer = deadline [ms]; 0 = off
     od_.add_u32(static_cast<uint16_t>(od::kTpdoComm + n), 1, 0x80000000u | (cob::kTpdo1 + 0x100u * n + id), true);
     od_.add_u8(static_cast<uint16_t>(od::kTpdoComm + n), 2, 0xFF, true);
     const auto count_ok = [](const std::vector<uint8_t>& v) { return v[0] <= 4 ? 0u : sdo::kAbortValueRange; };
@@ -48,6 +62,10 @@ SimDrive::SimDrive(SimDriveConfig config, std::function<void(const CanFrame&)> s
       od_.add_u32(static_cast<uint16_t>(od::kTpdoMap + n), s, 0, true, mappable);
     }
   }
+  od_.add_u16(od::kAbortConnectionOption, 0, 1, true, [](const std::vector<uint8_t>& v) {
+    const auto code = static_cast<int16_t>(v[0] | (v[1] << 8));
+    return code >= 0 && code <= 3 ? 0u : sdo::kAbortValueRange;  // no manufacturer-specific codes here
+  });
   od_.add_u16(od::kErrorCode, 0, 0, false);
   od_.add_u16(od::kControlword, 0, 0, true);
   od_.add_u16(od::kStatusword, 0, canopen::encode_statusword(state_), false);
@@ -59,8 +77,65 @@ SimDrive::SimDrive(SimDriveConfig config, std::function<void(const CanFrame&)> s
   od_.add_u32(od::kPositionActual, 0, 0, false);
   od_.add_u32(od::kVelocityActual, 0, 0, false);
   od_.add_u32(od::kTargetVelocity, 0, 0, true);
+  od_.add_u32(od::kQuickStopDeceleration, 0,
+              static_cast<uint32_t>(std::min(4.0e9, std::round(config_.quick_stop_deceleration *
+                                                               std::abs(config_.counts_per_radian)))),
+              true, [](const std::vector<uint8_t>& v) { return u32(v) > 0 ? 0u : sdo::kAbortValueRange; });
   od_.set(od::kPositionActual, 0, static_cast<uint32_t>(position_counts()));
   sdo_ = std::make_unique<canopen::SdoServer>(id, od_, [this](const CanFrame& f) { send(f); });
+}
+
+void SimDrive::reset(bool application) {
+  // NMT reset: the drive reboots its communication (and with reset node its
+  // application: power stage off, the joint held by its brake) and comes
+  // back with its defaults, as if nobody had configured it.
+  // Reset communication keeps the application's objects (0x6000 on).
+  std::vector<std::pair<uint16_t, uint32_t>> kept;
+  if (!application)
+    for (const uint16_t index : {od::kAbortConnectionOption, od::kControlword, od::kModesOfOperation,
+                                 od::kModesOfOperationDisplay, od::kQuickStopDeceleration, od::kTargetVelocity})
+      kept.emplace_back(index, od_.get(index, 0));
+  build_dictionary();
+  for (const auto& [index, value] : kept) od_.set(index, 0, value);
+  if (application) {
+    set_state(Cia402State::kSwitchOnDisabled);
+    velocity_ = target_velocity_ = 0.0;
+    last_controlword_ = 0;
+  } else {
+    od_.set(od::kStatusword, 0, canopen::encode_statusword(state_));
+  }
+  pending_rpdo_.clear();
+  master_heartbeat_ = last_rpdo_ = -1;
+  master_heartbeat_lost_ = rpdo_late_ = false;
+  nmt_ = NmtState::kBootUp;
+  booted_ = false;  // boot-up message again on the next advance
+}
+
+void SimDrive::abort_connection(uint16_t fault_code) {
+  const auto option = static_cast<int16_t>(od_.get(od::kAbortConnectionOption, 0));
+  if (state_ != Cia402State::kOperationEnabled) return;
+  if (option == 1) {
+    inject_fault(fault_code);
+  } else if (option == 2) {
+    set_state(Cia402State::kSwitchOnDisabled);
+  } else if (option == 3) {
+    set_state(Cia402State::kQuickStopActive);
+    target_velocity_ = 0.0;
+  }
+}
+
+void SimDrive::communication_error(uint16_t emcy_code) {
+  // CiA 301: an EMCY, then the error behaviour (0x1029:01); CiA 402: the
+  // abort connection option (0x6007) acts on a drive that is producing torque.
+  canopen::Emcy e;
+  e.error_code = emcy_code;
+  e.error_register = 0x11;  // generic + communication
+  od_.set(od::kErrorRegister, 0, e.error_register);
+  send(canopen::emcy_frame(config_.node_id, e));
+  abort_connection(emcy_code);
+  const auto behaviour = od_.get(od::kErrorBehaviour, 1);
+  if (behaviour == 0 && nmt_ == NmtState::kOperational) nmt_ = NmtState::kPreOperational;
+  if (behaviour == 2) nmt_ = NmtState::kStopped;
 }
 
 void SimDrive::send(const CanFrame& f) {
@@ -82,22 +157,41 @@ void SimDrive::handle_frame(const CanFrame& f, Micros now) {
   if (f.extended || f.remote || f.error || silent_) return;
   if (f.id == cob::kNmt && f.dlc == 2) {
     if (f.data[1] != 0 && f.data[1] != config_.node_id) return;
+    // RPDO deadline monitoring starts again with the first RPDO in the new state.
+    last_rpdo_ = -1;
+    rpdo_late_ = false;
     switch (static_cast<canopen::NmtCommand>(f.data[0])) {
       case canopen::NmtCommand::kStart:
         nmt_ = NmtState::kOperational;
         break;
+      // Leaving operational while producing torque is a lost connection
+      // (CiA 402 0x6007 names NMT stopped and the resets; pre-operational is
+      // treated alike: a drive there ignores its RPDOs, nothing could stop it).
       case canopen::NmtCommand::kStop:
+        abort_connection(0x8100);
         nmt_ = NmtState::kStopped;
         break;
       case canopen::NmtCommand::kEnterPreOperational:
+        abort_connection(0x8100);
         nmt_ = NmtState::kPreOperational;
         break;
       case canopen::NmtCommand::kResetNode:
+        reset(true);
+        break;
       case canopen::NmtCommand::kResetCommunication:
-        nmt_ = NmtState::kBootUp;
-        booted_ = false;  // boot-up message again on the next advance
+        abort_connection(0x8100);
+        reset(false);
         break;
     }
+    return;
+  }
+  // Heartbeat consumer (CiA 301): monitoring starts with the first heartbeat
+  // of the configured producer, in any state but stopped... and stopped too,
+  // as most drives do.
+  const uint32_t consumer = od_.get(od::kHeartbeatConsumer, 1);
+  if ((consumer & 0xFFFF) != 0 && f.id == cob::kHeartbeat + ((consumer >> 16) & 0x7F) && f.dlc >= 1) {
+    master_heartbeat_ = now;
+    master_heartbeat_lost_ = false;
     return;
   }
   if (nmt_ == NmtState::kStopped) return;
@@ -109,7 +203,13 @@ void SimDrive::handle_frame(const CanFrame& f, Micros now) {
   if (nmt_ != NmtState::kOperational) return;
   for (uint16_t n = 0; n < 2; ++n) {
     const uint32_t cob_id = od_.get(static_cast<uint16_t>(od::kRpdoComm + n), 1);
-    if (!(cob_id & 0x80000000u) && (cob_id & 0x7FF) == f.id) pending_rpdo_.push_back(f);
+    if (!(cob_id & 0x80000000u) && (cob_id & 0x7FF) == f.id) {
+      pending_rpdo_.push_back(f);
+      if (n == 0) {
+        last_rpdo_ = now;
+        rpdo_late_ = false;
+      }
+    }
   }
 }
 
@@ -189,7 +289,9 @@ void SimDrive::advance(Micros now) {
     const bool stopping = state_ == Cia402State::kQuickStopActive || state_ == Cia402State::kFaultReactionActive;
     const bool enabled = state_ == Cia402State::kOperationEnabled;
     const double goal = enabled ? target_velocity_ : 0.0;
-    const double accel = stopping ? config_.quick_stop_deceleration : config_.max_acceleration;
+    const double accel =
+        stopping ? static_cast<double>(od_.get(od::kQuickStopDeceleration, 0)) / std::abs(config_.counts_per_radian)
+                 : config_.max_acceleration;
     // Without torque (disabled states) the brake holds the joint at once.
     if (!enabled && !stopping) {
       velocity_ = 0.0;
@@ -200,6 +302,18 @@ void SimDrive::advance(Micros now) {
       position_ += 0.5 * (v0 + velocity_) * dt;
     }
     if (state_ == Cia402State::kFaultReactionActive && velocity_ == 0.0) set_state(Cia402State::kFault);
+  }
+  // The master's heartbeat (0x1016) and the RPDO deadline (0x1400:05), each
+  // reported once per loss (re-armed by the next heartbeat or RPDO).
+  const Micros consumer_time = Micros{od_.get(od::kHeartbeatConsumer, 1) & 0xFFFF} * 1000;
+  if (consumer_time > 0 && master_heartbeat_ >= 0 && !master_heartbeat_lost_ && now - master_heartbeat_ > consumer_time) {
+    master_heartbeat_lost_ = true;
+    communication_error(0x8130);
+  }
+  const Micros deadline = Micros{od_.get(od::kRpdoComm, 5)} * 1000;
+  if (deadline > 0 && last_rpdo_ >= 0 && !rpdo_late_ && nmt_ == NmtState::kOperational && now - last_rpdo_ > deadline) {
+    rpdo_late_ = true;
+    communication_error(0x8250);
   }
   if (config_.sync_timeout_us > 0 && state_ == Cia402State::kOperationEnabled && last_sync_ >= 0 &&
       now - last_sync_ > config_.sync_timeout_us)
@@ -228,8 +342,10 @@ SimDriveSet::SimDriveSet(can::CanBus& bus, const std::vector<SimDriveConfig>& co
 }
 
 void SimDriveSet::drain(Micros now) {
-  while (auto f = bus_.receive())
+  while (auto f = bus_.receive()) {
+    last_frame_ = f->timestamp_us > 0 ? f->timestamp_us : now;
     for (auto& d : drives_) d->handle_frame(*f, now);
+  }
 }
 
 void SimDriveSet::advance(Micros now) {

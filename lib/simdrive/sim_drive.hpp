@@ -33,12 +33,19 @@ struct SimDriveConfig {
   double max_acceleration = 3.0;         // [rad/s^2] velocity following
   double quick_stop_deceleration = 6.0;  // [rad/s^2]
   double initial_position = 0.0;         // [rad]
-  // Communication watchdog, as real drives have (abort connection option):
-  // with torque on and no SYNC for this long the drive goes to fault
-  // reaction (ramp down) and Fault with error code 0x8100. 0 = off (the
-  // default, so embedders keep the old behaviour; harvest-sim-drives sets
-  // it from sync_timeout_ms).
+  // A vendor's own communication watchdog, on before any master configures
+  // the standard objects below: with torque on and no SYNC for this long the
+  // drive goes to fault reaction (ramp down) and Fault with error code
+  // 0x8100. 0 = off (the default, so embedders keep the old behaviour;
+  // harvest-sim-drives sets it from sync_timeout_ms).
   Micros sync_timeout_us = 0;
+  // The standard protection a master configures by SDO (docs/can.md), as a
+  // drive implements it: heartbeat consumer 0x1016 (EMCY 0x8130 on a lost
+  // heartbeat), RPDO deadline 0x1400:05 (EMCY 0x8250), each a communication
+  // error answered with the abort connection option 0x6007 and the error
+  // behaviour 0x1029:01; quick stop at 0x6085. Their defaults before a
+  // master writes them: consumer off, deadline off, 0x6007 = 1 (fault),
+  // 0x1029:01 = 0 (pre-operational), 0x6085 from quick_stop_deceleration.
 };
 
 class SimDrive {
@@ -62,9 +69,18 @@ class SimDrive {
   void set_silent(bool silent) { silent_ = silent; }  // sends nothing at all (drive lost, cable cut)
   void set_heartbeat_enabled(bool on) { heartbeat_enabled_ = on; }
   void set_position(double rad) { position_ = rad; }
+  // The drive's own input (safe torque off, a local panel) switches it off:
+  // switch on disabled, with no command on the bus.
+  void local_disable() { set_state(Cia402State::kSwitchOnDisabled); }
 
  private:
   void send(const can::CanFrame& f);
+  void build_dictionary();
+  void reset(bool application);  // NMT reset node (true) or reset communication
+  void communication_error(uint16_t emcy_code);
+  // The abort connection option (0x6007) on a drive producing torque; a
+  // fault (option 1) gets `fault_code`.
+  void abort_connection(uint16_t fault_code);
   void on_sync(Micros now);
   void apply_rpdo(const can::CanFrame& f);
   void send_tpdos();
@@ -83,6 +99,10 @@ class SimDrive {
   Micros last_advance_ = -1;
   Micros last_sync_ = -1;
   Micros next_heartbeat_ = 0;
+  Micros master_heartbeat_ = -1;  // last heartbeat of the consumed producer (-1: none yet, not monitored)
+  bool master_heartbeat_lost_ = false;
+  Micros last_rpdo_ = -1;  // last RPDO1 in operational (-1: none yet, deadline not monitored)
+  bool rpdo_late_ = false;
   bool booted_ = false;
   bool silent_ = false;
   bool heartbeat_enabled_ = true;
@@ -93,6 +113,9 @@ class SimDriveSet {
  public:
   SimDriveSet(can::CanBus& bus, const std::vector<SimDriveConfig>& configs);
   void drain(Micros now);  // dispatch every waiting frame
+  // When the last frame from the bus arrived (its transport timestamp, else
+  // the `now` it was drained at); -1 before the first.
+  Micros last_frame_time() const { return last_frame_; }
   void advance(Micros now);
   SimDrive& drive(std::size_t i) { return *drives_[i]; }
   std::size_t size() const { return drives_.size(); }
@@ -101,6 +124,7 @@ class SimDriveSet {
  private:
   can::CanBus& bus_;
   std::vector<std::unique_ptr<SimDrive>> drives_;
+  Micros last_frame_ = -1;
 };
 
 }  // namespace harvest::simdrive

@@ -42,7 +42,9 @@ try:
         "tpdo1": set(tpdo1) == nodes and all(sw & 0x6F == 0x27 for sw, _ in tpdo1.values()),
         "tpdo2": set(tpdo2) == nodes,
         # every drive operational (0x05)
-        "heartbeat": set(heartbeat) == nodes and all(s == 0x05 for s in heartbeat.values()),
+        "heartbeat": nodes <= set(heartbeat) and all(heartbeat[n] == 0x05 for n in nodes),
+        # the robot link's own heartbeat (node 127), which the drives consume (0x1016)
+        "master heartbeat": heartbeat.get(127) == 0x05,
     }
     for name, ok in checks.items():
         print(f"{name}: {'ok' if ok else 'FAILED'}")

@@ -31,7 +31,7 @@ using namespace std::chrono_literals;
 namespace {
 
 constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLost = 1 << 2, kFlagPdoLost = 1 << 3,
-                  kFlagEstop = 1 << 4, kFlagCommandStale = 1 << 5, kFlagRefused = 1 << 7;
+                  kFlagEstop = 1 << 4, kFlagCommandStale = 1 << 5, kFlagRefused = 1 << 7, kFlagForeign = 1 << 10;
 
 // A virtual CAN bus of its own for every test (ctest runs tests in parallel):
 // group and port from the pid, ports above the ephemeral range.
@@ -67,8 +67,12 @@ class ArmProcesses : public ::testing::Test {
                                            // Two processes per test, several tests at once on a shared
                                            // 2-core CI machine: a PDO gap of 100 ms (the shipped watchdog,
                                            // tested on a manual clock in arm_test) happens there without
-                                           // any fault. These tests are about the stop paths.
-                                           "--set", "can.pdo_timeout_ms=300", "--lcm-url", url_, "--no-netcheck"},
+                                           // any fault. These tests are about the stop paths. So
+                                           // would the drives' own 25 ms RPDO deadline, tested on a
+                                           // manual clock and by robot_link_kill_test.
+                                           "--set", "can.pdo_timeout_ms=300", "--set", "can.drive_rpdo_timeout_ms=200",
+                                           "--set", "can.drive_heartbeat_timeout_ms=300", "--lcm-url", url_,
+                                           "--no-netcheck"},
                   tmp_ / "robot-link.log");
     ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_IDLE; }, 15s))
         << "the drives never became enabled\n"
@@ -321,8 +325,9 @@ TEST_F(ArmProcesses, UnreachablePoseGoalIsRefusedWhileTheLinkKeepsRunning) {
 }
 
 // python-can (not our code) decodes the CANopen traffic of the two processes
-// with the standard layouts, then stops drive 4 with its own NMT frame: the
-// robot link sees the drive's PDOs stop and stops the arm.
+// with the standard layouts (the link's own heartbeat too), then stops drive
+// 4 with its own NMT frame: the robot link sees another master on its bus and
+// stops the arm.
 TEST_F(ArmProcesses, PythonCanPeerReadsOurCanopenTrafficAndItsNmtStopIsHandled) {
   const std::string spec = bus_.substr(bus_.find(':') + 1, bus_.find('?') - bus_.find(':') - 1);  // group:port
   const std::string group = spec.substr(0, spec.find(':')), port = spec.substr(spec.find(':') + 1);
@@ -332,10 +337,11 @@ TEST_F(ArmProcesses, PythonCanPeerReadsOurCanopenTrafficAndItsNmtStopIsHandled) 
       tmp_ / "peer.log");
   ASSERT_EQ(peer.wait(15s), 0) << peer.output() << outputs();
   ASSERT_TRUE(wait_for(
-      [](const robot_state_t& s) { return (s.fault_flags & kFlagPdoLost) && s.mode == robot_state_t::MODE_FAULT; }, 5s,
-      from))
+      [](const robot_state_t& s) { return (s.fault_flags & kFlagForeign) && s.mode == robot_state_t::MODE_FAULT; },
+      5s, from))
       << peer.output() << outputs();
-  EXPECT_NE(latest()->fault_text.find("joint 4 (node 4): no PDO"), std::string::npos) << latest()->fault_text;
+  EXPECT_NE(latest()->fault_text.find("joint 4 (node 4): NMT stop from another master"), std::string::npos)
+      << latest()->fault_text;
 }
 
 // In the field the bus is socketcan:can0; a missing interface (or, here, a

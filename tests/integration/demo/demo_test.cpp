@@ -79,7 +79,10 @@ TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
   std::string out;
   ASSERT_EQ(
       run_demo({"--set", "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml", "--process-set",
-                "sim:devices.bus=" + bus, "--process-set", "robot-link:bus=" + bus, "--process-set",
+                "sim:devices.bus=" + bus, "--process-set", "robot-link:bus=" + bus,
+                // A stall of the link on the loaded test machine must not trip the drives' 25 ms deadline.
+                "--process-set", "robot-link:can.drive_rpdo_timeout_ms=200", "--process-set",
+                "robot-link:can.drive_heartbeat_timeout_ms=300", "--process-set",
                 "sim:devices.board.port=" + port, "--process-set", "ee-bridge:link.tcp.port=" + port},
                dir.path(), &out),
       0)

@@ -71,8 +71,9 @@ TEST(ShippedConfig, EveryVirtualCanBusIsThisHostOnly) {
         if (kv.first.as<std::string>() == "bus" && kv.second.IsScalar()) {
           ++found;
           const auto spec = can::parse_bus_spec(kv.second.as<std::string>());
-          if (spec.kind == can::BusSpec::Kind::kUdpMulticast)
+          if (spec.kind == can::BusSpec::Kind::kUdpMulticast) {
             EXPECT_EQ(spec.udp.hop_limit, 0) << f << ": " << kv.second.as<std::string>();
+          }
         }
         visit(kv.second, f);
       }

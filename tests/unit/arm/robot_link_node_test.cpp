@@ -114,6 +114,25 @@ class Rig final : public rt::Dispatcher {
     const rt::Micros end = now_ + rt::from_seconds(seconds);
     while (now_ < end) step(each_ms);
   }
+  // The link falls silent (its process killed): only the drives go on.
+  void run_without_link(double seconds, const std::function<void()>& each_ms = {}) {
+    const rt::Micros end = now_ + rt::from_seconds(seconds);
+    while (now_ < end) {
+      now_ += 1000;
+      drives_->advance(now_);
+      drives_->drain(now_);
+      if (each_ms) each_ms();
+    }
+  }
+  // Another device on the bus (another master, an attacker) sends a frame.
+  void forge(uint32_t id, std::vector<uint8_t> data) {
+    if (intruder_ == nullptr) intruder_ = &wire_.attach();
+    can::CanFrame f;
+    f.id = id;
+    f.dlc = static_cast<uint8_t>(data.size());
+    std::copy(data.begin(), data.end(), f.data.begin());
+    intruder_->send(f);
+  }
   // Runs until pred() or `max_seconds`; returns pred().
   bool run_until(const std::function<bool()>& pred, double max_seconds, const std::function<void()>& each_ms = {}) {
     const rt::Micros end = now_ + rt::from_seconds(max_seconds);
@@ -159,6 +178,7 @@ class Rig final : public rt::Dispatcher {
 
   kinematics::ArmModel model_;
   can::MemoryWire wire_;
+  can::MemoryBus* intruder_ = nullptr;
   std::unique_ptr<simdrive::SimDriveSet> drives_;
   std::unique_ptr<RobotLinkNode> node_;
   rt::Micros now_ = kStart;
@@ -528,6 +548,95 @@ TEST(RobotLinkNode, EachFaultCauseIsReportedOnce) {
 TEST(RobotLinkNode, PdoLossStopsTheArm) {
   expect_fault_stop([](Rig& r) { r.drives().drive(0).set_silent(true); }, kFlagPdoLost, "joint 1 (node 1): no PDO",
                     [](Rig& r) { r.drives().drive(0).set_silent(false); });
+}
+
+// ---- CAN peers checked (issue 16): frames and states the link did not cause.
+
+TEST(RobotLinkNode, ForgedRpdoFromAnotherMasterStopsTheArmUntilReset) {
+  expect_fault_stop([](Rig& r) { r.forge(0x203, {0x0F, 0x00, 0x10, 0x27, 0x00, 0x00}); }, kFlagForeign,
+                    "joint 3 (node 3): an RPDO 0x203 we did not send (another master on the bus)");
+}
+
+// Stopped or reset by another master's NMT frame: RESET_FAULT runs that
+// drive's start-up again (a reset drive has lost its configuration) and the
+// arm moves again.
+TEST(RobotLinkNode, NmtStopOrResetByAnotherMasterStopsTheArmAndResetFaultRestartsTheDrive) {
+  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x02, 4}); }, kFlagForeign,
+                    "joint 4 (node 4): NMT stop from another master");
+  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x81, 4}); }, kFlagForeign,
+                    "joint 4 (node 4): NMT reset node from another master");
+  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x82, 0}); }, kFlagForeign,
+                    "NMT reset communication from another master for all nodes");
+}
+
+TEST(RobotLinkNode, HeartbeatSayingADriveLeftOperationalOrRebootedStopsTheArm) {
+  expect_fault_stop([](Rig& r) { r.forge(0x706, {0x04}); }, kFlagNmtLeft,
+                    "joint 6 (node 6): left operational (heartbeat: stopped)");
+  expect_fault_stop([](Rig& r) { r.forge(0x706, {0x7F}); }, kFlagNmtLeft,
+                    "joint 6 (node 6): left operational (heartbeat: pre-operational)");
+  expect_fault_stop([](Rig& r) { r.forge(0x706, {0x00}); }, kFlagNmtLeft,
+                    "joint 6 (node 6): rebooted (boot-up message)");
+}
+
+TEST(RobotLinkNode, DriveStateChangeWithoutACommandStopsTheArm) {
+  expect_fault_stop([](Rig& r) { r.drives().drive(1).local_disable(); }, kFlagUncommanded,
+                    "joint 2 (node 2): state changed from operation enabled to switch on disabled without a command");
+}
+
+TEST(RobotLinkNode, OneForgedEmcyStillFaultsTheArm) {
+  expect_fault_stop([](Rig& r) { r.forge(0x082, {0x10, 0x23, 0x01, 0, 0, 0, 0, 0}); }, kFlagEmcy,
+                    "joint 2 (node 2): EMCY 0x2310 current");
+}
+
+// The manual-clock twin of tests/integration/arm/robot_link_kill_test: the
+// link stops (no RPDO, SYNC or heartbeat any more) right after a SYNC while
+// the tool moves at the speed limit, in each of six directions from home at
+// two moments; the drives' RPDO deadline (25 ms) and quick stop (10x the joint
+// acceleration limits) stop every joint within 100 ms and the tool within
+// 20 mm of the last frame. The worst case is printed.
+TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
+  double worst_ms = 0.0, worst_mm = 0.0;
+  for (const Eigen::Vector3d& dir : std::vector<Eigen::Vector3d>{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1},
+                                                               {0, 0, -1}}) {
+    for (const double moving : {0.4, 0.5}) {
+      Rig rig(default_config());
+      rig.start();
+      const Eigen::Vector3d v = 0.381 * dir;
+      const auto cmd = every_20ms(rig, twist_command(v.x(), v.y(), v.z()));
+      rig.run(moving, cmd);
+      const std::size_t n = rig.states().size();
+      rig.run_until([&] { return rig.states().size() > n; }, 0.02, cmd);  // a SYNC just went out
+      const auto& s = rig.last();
+      ASSERT_NEAR(Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm(),
+                  0.381, 0.01)
+          << dir.transpose() << " after " << moving << " s";
+      const auto tool = [&] {
+        Eigen::VectorXd q(7);
+        for (int i = 0; i < 7; ++i) q[i] = rig.drives().drive(static_cast<std::size_t>(i)).position();
+        return kinematics::tool_pose(rig.model(), q).translation();
+      };
+      const rt::Micros last_frame = rig.now();
+      Eigen::Vector3d last = tool();
+      double travel = 0.0;
+      rt::Micros at_rest = 0;
+      rig.run_without_link(0.3, [&] {
+        const Eigen::Vector3d p = tool();
+        travel += (p - last).norm();
+        last = p;
+        if (at_rest == 0 && rig.max_true_speed() == 0.0) at_rest = rig.now();
+      });
+      ASSERT_GT(at_rest, 0) << "still moving 300 ms later";
+      const double stop_ms = rt::to_seconds(at_rest - last_frame) * 1000.0;
+      EXPECT_LE(stop_ms, 100.0) << dir.transpose() << " after " << moving << " s";
+      EXPECT_LE(travel, 0.020) << dir.transpose() << " after " << moving << " s";
+      worst_ms = std::max(worst_ms, stop_ms);
+      worst_mm = std::max(worst_mm, 1000.0 * travel);
+      for (std::size_t i = 0; i < rig.drives().size(); ++i)
+        EXPECT_EQ(rig.drives().drive(i).state(), canopen::Cia402State::kQuickStopActive) << "joint " << i + 1;
+    }
+  }
+  std::printf("link silent at 0.381 m/s (12 motions): every joint at rest within %.0f ms, tool travel at most %.1f mm\n",
+              worst_ms, worst_mm);
 }
 
 TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {

@@ -2,6 +2,8 @@
 // client against the SDO server (expedited, segmented, aborts, timeouts).
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <deque>
 
 #include "canopen/cia402.hpp"
@@ -109,7 +111,39 @@ TEST(Pdo, DefaultMappingLayouts) {
     if (w.index == 0x6060) csv = w.value == 9 && w.size == 1;
   }
   EXPECT_TRUE(rpdo_velocity && tpdo_position && csv);
-  EXPECT_EQ(writes.back().index, 0x1017);
+  bool heartbeat_producer = false;
+  for (const auto& w : writes) heartbeat_producer = heartbeat_producer || (w.index == 0x1017 && w.value == 50);
+  EXPECT_TRUE(heartbeat_producer);
+}
+
+// The drive-side protection writes (docs/can.md): heartbeat consumer on the
+// master's node, RPDO1 event timer as its deadline, abort connection option
+// quick stop, quick-stop deceleration; after the mapping, before NMT start.
+TEST(Pdo, DriveProtectionWrites) {
+  DriveProtection p;
+  p.master_node = 127;
+  p.heartbeat_consumer_ms = 50;
+  p.rpdo_timeout_ms = 30;
+  p.abort_connection_option = 3;
+  p.quick_stop_deceleration = 3'930'000;
+  const auto writes = default_drive_configuration(4, 50, p);
+  std::map<uint32_t, SdoWrite> by_key;
+  for (const auto& w : writes) by_key[(static_cast<uint32_t>(w.index) << 8) | w.sub] = w;
+  ASSERT_TRUE(by_key.count(0x101601));
+  EXPECT_EQ(by_key[0x101601].value, 0x007F0032u);  // node 127, 50 ms
+  EXPECT_EQ(by_key[0x101601].size, 4);
+  EXPECT_EQ(by_key[0x140005].value, 30u);
+  EXPECT_EQ(by_key[0x140005].size, 2);
+  EXPECT_EQ(by_key[0x600700].value, 3u);
+  EXPECT_EQ(by_key[0x600700].size, 2);
+  EXPECT_EQ(by_key[0x608500].value, 3'930'000u);
+  // Off where not asked for: no consumer, no deadline, the drive's own deceleration.
+  const auto plain = default_drive_configuration(4, 50);
+  for (const auto& w : plain) {
+    EXPECT_NE(w.index, 0x1016);
+    EXPECT_FALSE(w.index == 0x1400 && w.sub == 5);
+    EXPECT_NE(w.index, 0x6085);
+  }
 }
 
 TEST(Cia402, StatuswordDecoding) {
@@ -156,6 +190,31 @@ TEST(Cia402, FaultStaysLatchedWithoutPermission) {
   // A fault reset needs a rising edge of bit 7.
   EXPECT_EQ(apply_controlword(Cia402State::kFault, 0x0080, 0x0080), Cia402State::kFault);
   EXPECT_EQ(apply_controlword(Cia402State::kFault, 0x0080, 0x0000), Cia402State::kSwitchOnDisabled);
+}
+
+// What the master accepts as a state change it caused (or a drive makes on
+// its own); anything else is a state change without a command.
+TEST(Cia402, CommandedTransitions) {
+  using S = Cia402State;
+  namespace cw = controlword;
+  EXPECT_TRUE(commanded_transition(S::kOperationEnabled, S::kOperationEnabled, cw::kEnableOperation, cw::kEnableOperation));
+  EXPECT_TRUE(commanded_transition(S::kSwitchedOn, S::kOperationEnabled, cw::kEnableOperation, cw::kSwitchOn));
+  EXPECT_TRUE(commanded_transition(S::kOperationEnabled, S::kQuickStopActive, cw::kQuickStop, cw::kEnableOperation));
+  EXPECT_TRUE(commanded_transition(S::kOperationEnabled, S::kSwitchedOn, cw::kShutdown, cw::kSwitchOn))
+      << "a TPDO may answer the SYNC before the last one";
+  EXPECT_TRUE(commanded_transition(S::kOperationEnabled, S::kFaultReactionActive, cw::kEnableOperation, 0));
+  EXPECT_TRUE(commanded_transition(S::kFault, S::kSwitchOnDisabled, cw::kDisableVoltage, cw::kFaultReset));
+  EXPECT_TRUE(commanded_transition(S::kQuickStopActive, S::kSwitchOnDisabled, cw::kQuickStop, cw::kQuickStop));
+  EXPECT_TRUE(commanded_transition(S::kNotReadyToSwitchOn, S::kSwitchOnDisabled, 0, 0));
+  // Disabled, stopped or enabled by someone else:
+  EXPECT_FALSE(commanded_transition(S::kOperationEnabled, S::kSwitchOnDisabled, cw::kEnableOperation,
+                                    cw::kEnableOperation));
+  EXPECT_FALSE(commanded_transition(S::kOperationEnabled, S::kQuickStopActive, cw::kEnableOperation,
+                                    cw::kEnableOperation));
+  EXPECT_FALSE(commanded_transition(S::kSwitchOnDisabled, S::kOperationEnabled, cw::kDisableVoltage,
+                                    cw::kDisableVoltage));
+  EXPECT_FALSE(commanded_transition(S::kFault, S::kSwitchOnDisabled, cw::kDisableVoltage, cw::kDisableVoltage))
+      << "a fault reset we did not send";
 }
 
 TEST(Cia402, QuickStopFromOperationEnabled) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "can/memory_bus.hpp"
 #include "canopen/master.hpp"
@@ -18,9 +19,8 @@ using canopen::MasterPhase;
 class MasterWithDrives : public ::testing::Test {
  protected:
   explicit MasterWithDrives(std::vector<uint8_t> master_nodes = {1, 2}) {
-    canopen::MasterConfig mc;
-    for (uint8_t n : master_nodes) mc.drives.push_back({n, 417'000.0, 1000 * n});
-    master_ = std::make_unique<canopen::Master>(master_bus_, mc);
+    for (uint8_t n : master_nodes) config_.drives.push_back({n, 417'000.0, 1000 * n});
+    master_ = std::make_unique<canopen::Master>(master_bus_, config_);
     std::vector<SimDriveConfig> dc;
     for (uint8_t n : {1, 2}) {
       SimDriveConfig c;
@@ -48,6 +48,36 @@ class MasterWithDrives : public ::testing::Test {
     }
   }
 
+  // The drives alone: the master has fallen silent (its process killed).
+  void run_drives(double seconds) {
+    const canopen::Micros end = now_ + static_cast<canopen::Micros>(seconds * 1e6);
+    while (now_ < end) {
+      now_ += 1000;
+      drives_->advance(now_);
+      drives_->drain(now_);
+    }
+  }
+  // A master with these settings in place of the default one.
+  void remake_master(const std::function<void(canopen::MasterConfig&)>& tweak) {
+    tweak(config_);
+    master_ = std::make_unique<canopen::Master>(master_bus_, config_);
+  }
+  // Another device on the bus (another master, an attacker): sends raw frames.
+  void forge(uint32_t id, std::vector<uint8_t> data) {
+    can::CanFrame f;
+    f.id = id;
+    f.dlc = static_cast<uint8_t>(data.size());
+    std::copy(data.begin(), data.end(), f.data.begin());
+    intruder_.send(f);
+  }
+  // EMCY codes from node `node` heard on the bus since the last call.
+  std::vector<uint16_t> emcy_heard(uint8_t node) {
+    std::vector<uint16_t> out;
+    while (auto f = intruder_.receive())
+      if (f->id == canopen::cob::kEmcy + node && f->dlc == 8) out.push_back(canopen::get_u16(f->data.data()));
+    return out;
+  }
+
   void start_and_enable() {
     master_->start(now_);
     run(0.5);
@@ -60,6 +90,8 @@ class MasterWithDrives : public ::testing::Test {
   can::MemoryWire wire_;
   can::MemoryBus& master_bus_ = wire_.attach();
   can::MemoryBus& drive_bus_ = wire_.attach();
+  can::MemoryBus& intruder_ = wire_.attach();
+  canopen::MasterConfig config_;
   std::unique_ptr<canopen::Master> master_;
   std::unique_ptr<SimDriveSet> drives_;
   canopen::Micros now_ = 1'000'000'000;
@@ -166,6 +198,163 @@ TEST_F(MasterWithDrives, WaitsForADriveThatComesUpLate) {
   run(0.1);
   EXPECT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled));
   EXPECT_FALSE(master_->any_fault());
+}
+
+// ---- Drive-side protection (CiA 301 0x1016, 0x1400:05; CiA 402 0x6007, 0x6085).
+
+TEST_F(MasterWithDrives, ConfiguresEachDrivesOwnProtection) {
+  remake_master([](canopen::MasterConfig& c) {
+    for (auto& d : c.drives) d.quick_stop_deceleration = 9.0;
+  });
+  start_and_enable();
+  const auto& od = drives_->drive(1).dictionary();
+  EXPECT_EQ(od.get(0x1016, 1), (127u << 16) | 50u) << "consumes the master's heartbeat (node 127, 50 ms)";
+  EXPECT_EQ(od.get(0x1400, 5), 25u) << "RPDO1 deadline 25 ms";
+  EXPECT_EQ(od.get(0x6007, 0), 3u) << "abort connection: quick stop";
+  EXPECT_EQ(od.get(0x6085, 0), 3'753'000u) << "9 rad/s^2 at 417000 counts/rad";
+}
+
+// The master's process is killed while the joints turn: no RPDO, no SYNC, no
+// heartbeat. Each drive sees its RPDO1 deadline pass, sends EMCY 0x8250 and
+// quick-stops itself at its 0x6085 ramp.
+TEST_F(MasterWithDrives, DrivesQuickStopThemselvesWhenTheMasterFallsSilent) {
+  remake_master([](canopen::MasterConfig& c) {
+    for (auto& d : c.drives) d.quick_stop_deceleration = 9.0;
+  });
+  start_and_enable();
+  master_->set_velocities({0.5, -0.5});
+  run(0.5);
+  emcy_heard(1);
+  ASSERT_NEAR(drives_->drive(0).velocity(), 0.5, 1e-9);
+  run_drives(0.024);  // run() ended on a SYNC: the last RPDO came with it
+  EXPECT_EQ(drives_->drive(0).state(), canopen::Cia402State::kOperationEnabled) << "not before the 25 ms deadline";
+  run_drives(0.003);
+  EXPECT_EQ(drives_->drive(0).state(), canopen::Cia402State::kQuickStopActive);
+  EXPECT_EQ(drives_->drive(1).state(), canopen::Cia402State::kQuickStopActive);
+  EXPECT_EQ(emcy_heard(1), std::vector<uint16_t>{0x8250});
+  run_drives(0.5 / 9.0 + 0.002);
+  EXPECT_EQ(drives_->drive(0).velocity(), 0.0) << "stopped at 9 rad/s^2";
+  EXPECT_EQ(drives_->drive(1).velocity(), 0.0);
+  EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kPreOperational) << "0x1029:01 = 0";
+}
+
+// Without an RPDO deadline (a drive that has none), the consumed heartbeat
+// alone stops it: EMCY 0x8130 after the consumer time.
+TEST_F(MasterWithDrives, LostMasterHeartbeatAloneStopsTheDrives) {
+  remake_master([](canopen::MasterConfig& c) { c.drive_rpdo_timeout_ms = 0; });
+  start_and_enable();
+  master_->set_velocities({0.4, 0.4});
+  run(0.5);
+  emcy_heard(1);
+  run_drives(0.045);
+  EXPECT_EQ(drives_->drive(0).state(), canopen::Cia402State::kOperationEnabled);
+  run_drives(0.02);
+  EXPECT_EQ(drives_->drive(0).state(), canopen::Cia402State::kQuickStopActive);
+  EXPECT_EQ(emcy_heard(1), std::vector<uint16_t>{0x8130});
+}
+
+// ---- CAN peers checked: what no drive and no master of ours would send.
+
+TEST_F(MasterWithDrives, RpdoSyncOrSdoWriteFromAnotherMasterIsAFault) {
+  start_and_enable();
+  forge(0x201, {0x0F, 0x00, 0x10, 0x27, 0x00, 0x00});  // RPDO1 of node 1: enable, 10000 counts/s
+  run(0.02);
+  EXPECT_TRUE(master_->drives()[0].foreign);
+  EXPECT_NE(master_->drives()[0].fault_text.find("an RPDO 0x201 we did not send"), std::string::npos)
+      << master_->drives()[0].fault_text;
+  EXPECT_FALSE(master_->drives()[1].foreign);
+  master_->clear_faults();
+  forge(0x080, {});  // SYNC
+  run(0.02);
+  EXPECT_NE(master_->bus_fault().find("another SYNC producer"), std::string::npos) << master_->bus_fault();
+  EXPECT_TRUE(master_->any_fault());
+  master_->clear_faults();
+  forge(0x602, {0x2B, 0x40, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00});  // SDO write 0x6040 = 0 to node 2
+  run(0.02);
+  EXPECT_NE(master_->drives()[1].fault_text.find("an SDO write to 0x6040:00 we did not send"), std::string::npos)
+      << master_->drives()[1].fault_text;
+  master_->clear_faults();
+  master_->take_events();
+  forge(0x602, {0x40, 0x41, 0x60, 0x00, 0, 0, 0, 0});  // an SDO read: logged, not a fault
+  run(0.02);
+  EXPECT_FALSE(master_->any_fault());
+  const auto events = master_->take_events();
+  ASSERT_FALSE(events.empty());
+  EXPECT_NE(events.back().find("another SDO client reads 0x6041:00"), std::string::npos) << events.back();
+  EXPECT_EQ(master_->counters().at("can_foreign_frames"), 4);
+}
+
+TEST_F(MasterWithDrives, ForgedHeartbeatsAndExtraTpdosAreFaults) {
+  for (const auto& [state, text] : std::vector<std::pair<uint8_t, std::string>>{
+           {0x04, "left operational (heartbeat: stopped)"},
+           {0x7F, "left operational (heartbeat: pre-operational)"},
+           {0x00, "rebooted (boot-up message)"}}) {
+    start_and_enable();
+    forge(0x701, {state});
+    run(0.02);
+    EXPECT_TRUE(master_->drives()[0].nmt_left) << text;
+    EXPECT_NE(master_->drives()[0].fault_text.find(text), std::string::npos) << master_->drives()[0].fault_text;
+    master_->clear_faults();  // the drive itself was fine: its start-up runs again and it comes back
+    run(0.3);
+    master_->set_goal(DriveGoal::kEnabled);
+    run(0.1);
+    EXPECT_FALSE(master_->any_fault()) << master_->drives()[0].fault_text;
+    EXPECT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled));
+    remake_master([](canopen::MasterConfig&) {});
+  }
+  start_and_enable();
+  forge(0x181, {0x37, 0x02, 0, 0, 0, 0});  // TPDO1 of node 1: operation enabled at position 0
+  run(0.005);
+  EXPECT_NE(master_->drives()[0].fault_text.find("more TPDO1 frames than SYNCs"), std::string::npos)
+      << master_->drives()[0].fault_text;
+}
+
+// Stopped or reset by another master: a fault, and RESET_FAULT (clear_faults)
+// runs that drive's start-up again (a reset drive has lost its configuration).
+TEST_F(MasterWithDrives, NmtStopOrResetByAnotherMasterThenResetFaultRecovers) {
+  for (const uint8_t cmd : {0x02, 0x81, 0x82}) {
+    start_and_enable();
+    master_->set_velocities({0.2, 0.2});
+    run(0.3);
+    forge(0x000, {cmd, 2});
+    run(0.1);
+    EXPECT_TRUE(master_->drives()[1].foreign) << int(cmd);
+    EXPECT_NE(master_->drives()[1].fault_text.find("from another master"), std::string::npos);
+    if (cmd != 0x02) {
+      EXPECT_EQ(drives_->drive(1).dictionary().get(0x1400, 1) & 0x80000000u, 0x80000000u)
+          << "a reset drive is back to its defaults (RPDO1 invalid)";
+      EXPECT_EQ(drives_->drive(1).dictionary().get(0x1016, 1), 0u);
+    }
+    master_->set_goal(DriveGoal::kQuickStop);
+    run(0.3);
+    master_->clear_faults();
+    master_->set_goal(DriveGoal::kEnabled);
+    run(0.5);
+    EXPECT_FALSE(master_->any_fault()) << int(cmd) << ": " << master_->drives()[1].fault_text;
+    EXPECT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled)) << int(cmd);
+    EXPECT_EQ(drives_->drive(1).dictionary().get(0x1016, 1), (127u << 16) | 50u) << "configured again";
+    master_->set_velocities({0.2, 0.2});
+    run(0.5);
+    EXPECT_NEAR(drives_->drive(1).velocity(), 0.2, 1e-9) << "moves again";
+    remake_master([](canopen::MasterConfig&) {});
+  }
+}
+
+TEST_F(MasterWithDrives, StateChangeWithoutACommandIsAFault) {
+  start_and_enable();
+  master_->set_velocities({0.2, 0.2});
+  run(0.2);
+  drives_->drive(1).local_disable();  // safe torque off, a local panel: not us
+  run(0.03);
+  EXPECT_TRUE(master_->drives()[1].uncommanded);
+  EXPECT_NE(master_->drives()[1].fault_text.find(
+                "state changed from operation enabled to switch on disabled without a command"),
+            std::string::npos)
+      << master_->drives()[1].fault_text;
+  EXPECT_FALSE(master_->drives()[0].faulted()) << "commanded transitions are no fault";
+  master_->set_goal(DriveGoal::kQuickStop);
+  run(0.2);
+  EXPECT_FALSE(master_->drives()[0].uncommanded) << "our own quick stop is commanded";
 }
 
 class MissingDrive : public MasterWithDrives {
