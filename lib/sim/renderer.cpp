@@ -25,7 +25,7 @@ double shade(const Lighting& light, double cos_sun) {
 }  // namespace
 
 Renderer::Renderer(const vision::CameraModel& model, double noise_std, uint64_t seed)
-    : model_(model), w_(model.width), h_(model.height), noise_state_(seed) {
+    : model_(model), w_(model.width), h_(model.height), noise_state_(seed), noise_std_(noise_std), seed_(seed) {
   model_.validate();
   const std::size_t n = static_cast<std::size_t>(w_) * h_;
   nx_.resize(n);
@@ -46,6 +46,7 @@ Renderer::Renderer(const vision::CameraModel& model, double noise_std, uint64_t 
   }
   depth_.resize(n);
   ids_.resize(n);
+  prim_.resize(n);
   rgb_.resize(n);
   image_.create(h_, w_, CV_8UC3);
   std::mt19937_64 rng(seed);
@@ -122,14 +123,45 @@ Renderer::PixelBox Renderer::leaf_bounds(const Eigen::Vector3f& c, const Eigen::
   return normalized_box(ax, bx, ay, by);
 }
 
-void Renderer::put(int i, float depth, const Vec3& rgb, int32_t id) {
+void Renderer::set_look(const Look& look, double rate_hz) {
+  look_ = look;
+  rate_hz_ = rate_hz;
+  camera_.reset();
+  last_pose_.reset();
+  if (!look_.field()) return;
+  std::vector<float> cos_field(nx_.size());
+  for (std::size_t i = 0; i < nx_.size(); ++i) cos_field[i] = 1.0f / std::sqrt(1.0f + nx_[i] * nx_[i] + ny_[i] * ny_[i]);
+  camera_.emplace(look_, std::move(cos_field), w_, h_, rate_hz, noise_std_, seed_);
+  radiance_.resize(3 * nx_.size());
+}
+
+FruitMaterial Renderer::fruit_material(const Scene& scene, std::size_t fruit_index) const {
+  const Fruit& f = scene.fruit()[fruit_index];
+  return sim::fruit_material(look_, f.id, f.albedo_rgb);
+}
+
+void Renderer::put(int i, float depth, const Vec3& rgb, int32_t id, int32_t prim) {
   if (depth >= depth_[i]) return;
   depth_[i] = depth;
   rgb_[i] = rgb;
   ids_[i] = id;
+  prim_[i] = prim;
 }
 
-void Renderer::draw_sphere(const Eigen::Vector3f& c, float r, const Vec3& albedo, int32_t id,
+void Renderer::put_surface(int i, float depth, int32_t id, int32_t prim) {
+  if (depth >= depth_[i]) return;
+  depth_[i] = depth;
+  ids_[i] = id;
+  prim_[i] = prim;
+}
+
+void Renderer::Canvas::put(int i, float depth, const Vec3& albedo_rgb, const Eigen::Vector3f& normal) {
+  if (depth < kNear || depth >= r_.depth_[i]) return;
+  r_.put(i, depth, albedo_rgb, kExtra, -1);
+  r_.extra_normal_[static_cast<std::size_t>(i)] = normal;
+}
+
+void Renderer::draw_sphere(const Eigen::Vector3f& c, float r, const Vec3& albedo, int32_t id, int32_t prim,
                            const Eigen::Vector3f& sun, const Lighting& light) {
   const PixelBox b = bounds(c, r);
   const float cc = c.squaredNorm() - r * r;
@@ -149,14 +181,19 @@ void Renderer::draw_sphere(const Eigen::Vector3f& c, float r, const Vec3& albedo
         if (t < kNear) continue;
       }
       if (id >= 0) ++silhouette_[static_cast<std::size_t>(id)];
+      const int32_t p = inside ? -1 - prim : prim;
+      if (camera_) {  // field look: shaded afterwards, only where nearest
+        put_surface(i, t, id, p);
+        continue;
+      }
       const Eigen::Vector3f normal = (t * d - c) / r;
       const double lit = inside ? light.ambient * 0.3 : shade(light, normal.dot(sun));
-      put(i, t, albedo * lit, id);
+      put(i, t, albedo * lit, id, p);
     }
   }
 }
 
-void Renderer::draw_leaf(const Leaf& leaf, const Mat3& rt, const Vec3& t, const Eigen::Vector3f& sun,
+void Renderer::draw_leaf(const Leaf& leaf, int32_t prim, const Mat3& rt, const Vec3& t, const Eigen::Vector3f& sun,
                          const Lighting& light) {
   const Eigen::Vector3f c = (rt * leaf.centre + t).cast<float>();
   const Eigen::Vector3f n = (rt * leaf.normal).cast<float>();
@@ -179,12 +216,19 @@ void Renderer::draw_leaf(const Leaf& leaf, const Mat3& rt, const Vec3& t, const 
       const float qu = q.dot(u) / hl;
       if (qu < -1.0f || qu > 1.0f) continue;
       if (std::abs(q.dot(v)) > hw * (1.0f - qu * qu)) continue;
-      put(i, depth, colour, kLeaf);
+      if (camera_)
+        put_surface(i, depth, kLeaf, prim);
+      else
+        put(i, depth, colour, kLeaf, prim);
     }
   }
 }
 
 const cv::Mat& Renderer::render(const Scene& scene, const Placement& pose) {
+  return render(scene, pose, last_pose_ ? *last_pose_ : pose);
+}
+
+const cv::Mat& Renderer::render(const Scene& scene, const Placement& pose, const Placement& previous) {
   const Lighting& light = scene.lighting();
   const Mat3 rt = pose.rotation.transpose();  // base -> camera (the rotation is orthogonal)
   const Vec3 t = -rt * pose.position;
@@ -198,28 +242,69 @@ const cv::Mat& Renderer::render(const Scene& scene, const Placement& pose) {
   silhouette_.assign(scene.fruit().size(), 0);
 
   const Vec3 bark(96, 84, 68);
-  for (const auto& bead : scene.beads())
-    draw_sphere((rt * bead.centre + t).cast<float>(), static_cast<float>(bead.radius), bark, kBranch, sun, light);
-  for (const auto& leaf : scene.leaves()) draw_leaf(leaf, rt, t, sun, light);
-  for (const auto& f : scene.fruit()) {
-    if (f.state == FruitState::kPicked || f.state == FruitState::kKnocked) continue;
-    draw_sphere((rt * f.position + t).cast<float>(), static_cast<float>(f.radius), f.albedo_rgb, f.id, sun, light);
+  const auto& beads = scene.beads();
+  const auto& leaves = scene.leaves();
+  const auto& fruit = scene.fruit();
+  auto draw_beads = [&] {
+    for (std::size_t k = 0; k < beads.size(); ++k)
+      draw_sphere((rt * beads[k].centre + t).cast<float>(), static_cast<float>(beads[k].radius), bark, kBranch,
+                  static_cast<int32_t>(k), sun, light);
+  };
+  auto draw_fruit = [&] {
+    for (std::size_t k = 0; k < fruit.size(); ++k) {
+      const Fruit& f = fruit[k];
+      if (f.state == FruitState::kPicked || f.state == FruitState::kKnocked) continue;
+      draw_sphere((rt * f.position + t).cast<float>(), static_cast<float>(f.radius), f.albedo_rgb, f.id,
+                  static_cast<int32_t>(k), sun, light);
+    }
+  };
+  if (camera_) {
+    // Field look: nothing is shaded while drawing, so draw near to far and let
+    // the depth test turn most of what lies behind away early.
+    draw_fruit();
+    leaf_order_.resize(leaves.size());
+    for (std::size_t k = 0; k < leaves.size(); ++k)
+      leaf_order_[k] = {static_cast<float>((rt * leaves[k].centre + t).z() - leaves[k].half_length),
+                        static_cast<int32_t>(k)};
+    std::sort(leaf_order_.begin(), leaf_order_.end());
+    for (const auto& [z, k] : leaf_order_) draw_leaf(leaves[static_cast<std::size_t>(k)], k, rt, t, sun, light);
+    draw_beads();
+  } else {
+    draw_beads();
+    for (std::size_t k = 0; k < leaves.size(); ++k) draw_leaf(leaves[k], static_cast<int32_t>(k), rt, t, sun, light);
+    draw_fruit();
   }
+  if (!extras_.empty()) {
+    extra_normal_.resize(ids_.size());
+    Canvas canvas(*this);
+    for (const auto& e : extras_) e->draw(canvas, rt, t);
+  }
+  for (const int32_t id : ids_)
+    if (id >= 0) ++visible_[static_cast<std::size_t>(id)];
 
+  if (camera_) {
+    shade_field(scene, pose, sun);
+    camera_->develop(radiance_, image_motion(pose, previous), image_);
+  } else {
+    write_flat(sun, light);
+  }
+  last_pose_ = pose;
+  return image_;
+}
+
+void Renderer::write_flat(const Eigen::Vector3f& sun, const Lighting& light) {
   // Write out with sensor noise; the table offset advances every frame.
   const uint64_t offset = splitmix(noise_state_);
   const std::size_t n = ids_.size();
   for (std::size_t i = 0; i < n; ++i) {
-    if (ids_[i] >= 0) ++visible_[static_cast<std::size_t>(ids_[i])];
     auto* px = image_.ptr<uint8_t>(0) + 3 * i;
-    const Vec3& c = rgb_[i];
+    const Vec3 c = ids_[i] == kExtra ? Vec3(rgb_[i] * shade(light, std::abs(extra_normal_[i].dot(sun)))) : rgb_[i];
     for (int ch = 0; ch < 3; ++ch) {
       const int16_t e = noise_[(offset + 3 * i + static_cast<std::size_t>(ch)) & (kNoiseTable - 1)];
       const double value = c[2 - ch] + e / 16.0;  // BGR order
       px[ch] = static_cast<uint8_t>(std::clamp(value + 0.5, 0.0, 255.0));
     }
   }
-  return image_;
 }
 
 }  // namespace harvest::sim

@@ -146,6 +146,18 @@ Scenario Scenario::from_config(const config::Node& root) {
   s.lighting.diffuse = l.get<double>("diffuse", s.lighting.diffuse, {0.0, 2.0});
   s.lighting.exposure = l.get<double>("exposure", s.lighting.exposure, {0.05, 10.0});
 
+  const auto lk = root.child("look");
+  s.look.style = lk.choice("style", s.look.style, {"flat", "field"});
+  s.look.green_fraction = lk.get<double>("green_fraction", s.look.green_fraction, {0.0, 1.0});
+  s.look.half_ripe_fraction = lk.get<double>("half_ripe_fraction", s.look.half_ripe_fraction, {0.0, 1.0});
+  if (s.look.green_fraction + s.look.half_ripe_fraction > 1.0)
+    lk.fail("half_ripe_fraction", "at most 1 - green_fraction (the rest is ripe)");
+  s.look.dry_leaf_fraction = lk.get<double>("dry_leaf_fraction", s.look.dry_leaf_fraction, {0.0, 1.0});
+  s.look.exposure_time_s = lk.get<double>("exposure_time_ms", s.look.exposure_time_s * 1e3, {0.0, 100.0}) * 1e-3;
+  s.look.auto_exposure = lk.get<bool>("auto_exposure", s.look.auto_exposure);
+  s.look.white_balance_drift = lk.get<double>("white_balance_drift", s.look.white_balance_drift, {0.0, 0.5});
+  s.look.seed = s.seed;
+
   const auto w = root.child("wind");
   s.wind.amplitude = w.get<double>("amplitude_mm", 0.0, {0.0, 200.0}) * kMm;
   s.wind.frequency_hz = w.get<double>("frequency_hz", s.wind.frequency_hz, {0.0, 20.0});

@@ -91,6 +91,25 @@ struct Lighting {
   std::array<double, 3> sky_rgb{150, 190, 235};
 };
 
+// How the simulated cameras draw the world (docs/simulator.md, "Look").
+// "flat": the original cartoon shading (Lambert + ambient on flat colours,
+// Gaussian noise), which a colour threshold sees as intended; quick tests use
+// it. "field": what real canopy photographs have: textured leaves and peel
+// (dimples, specular highlights), cast shadows, overexposed sky gaps, dry
+// leaves and bark, unripe fruit, auto-exposure and white-balance drift,
+// motion blur, vignetting and signal-dependent noise.
+struct Look {
+  std::string style = "flat";        // flat | field
+  double green_fraction = 0.0;       // share of fruit drawn unripe green (field)
+  double half_ripe_fraction = 0.0;   // share drawn half-ripe, green patches on orange (field)
+  double dry_leaf_fraction = 0.06;   // share of leaves drawn dry and brown (field)
+  double exposure_time_s = 0.008;    // shutter open time: motion blur of a moving camera (field)
+  bool auto_exposure = true;         // the camera meters each frame and adapts its gain with a lag (field)
+  double white_balance_drift = 0.04; // amplitude of the slow per-channel gain drift (field)
+  uint64_t seed = 1;                 // the scenario's seed (not a key): which fruit is green, which leaf dry
+  bool field() const { return style == "field"; }
+};
+
 struct Wind {
   double amplitude = 0.0;  // fruit sway amplitude [m]
   double frequency_hz = 0.5;
@@ -170,6 +189,7 @@ struct Scenario {
   RandomFruit random_fruit;
   Canopy canopy;
   Lighting lighting;
+  Look look;
   Wind wind;
   CameraSetup fixed_camera, hand_camera;
   Placement fixed_camera_truth;  // true extrinsic (the software has its own)

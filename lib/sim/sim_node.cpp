@@ -72,6 +72,8 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
       ir_(scenario_.ir, scenario_.seed + 3),
       fixed_renderer_(scenario_.fixed_camera.model, scenario_.fixed_camera.noise_std, scenario_.seed + 1),
       hand_renderer_(scenario_.hand_camera.model, scenario_.hand_camera.noise_std, scenario_.seed + 2) {
+  fixed_renderer_.set_look(scenario_.look, scenario_.fixed_camera.rate_hz);
+  hand_renderer_.set_look(scenario_.look, scenario_.hand_camera.rate_hz);
   // What the fixed camera sees of each fruit before anything moves decides
   // which fruit the run is scored on.
   fixed_renderer_.render(scene_, scenario_.fixed_camera_truth);

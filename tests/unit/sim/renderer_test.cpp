@@ -156,14 +156,27 @@ TEST(Renderer, DumpScenarioFramesOnRequest) {
   if (dir == nullptr) GTEST_SKIP() << "set HARVEST_SIM_DUMP=DIR to write frames";
   for (const auto& e : std::filesystem::directory_iterator("config/scenarios")) {
     if (e.path().extension() != ".yaml") continue;
-    const Scenario sc = load_scenario(e.path().string());
-    const Scene scene(sc);
-    Renderer fixed(sc.fixed_camera.model, sc.fixed_camera.noise_std, 1);
-    cv::imwrite(std::string(dir) + "/" + e.path().stem().string() + "_fixed.png",
-                fixed.render(scene, sc.fixed_camera_truth));
-    Renderer hand(sc.hand_camera.model, sc.hand_camera.noise_std, 2);
-    const Placement start{look_at_rotation(sc.arm.start_tool_position, sc.arm.start_look_at), sc.arm.start_tool_position};
-    cv::imwrite(std::string(dir) + "/" + e.path().stem().string() + "_hand.png", hand.render(scene, start));
+    for (const char* style : {"flat", "field"}) {
+      Scenario sc = load_scenario(e.path().string());
+      sc.look.style = style;
+      const Scene scene(sc);
+      const std::string stem = std::string(dir) + "/" + e.path().stem().string() + "_" + style;
+      Renderer fixed(sc.fixed_camera.model, sc.fixed_camera.noise_std, 1);
+      fixed.set_look(sc.look, sc.fixed_camera.rate_hz);
+      cv::imwrite(stem + "_fixed.png", fixed.render(scene, sc.fixed_camera_truth));
+      Renderer hand(sc.hand_camera.model, sc.hand_camera.noise_std, 2);
+      hand.set_look(sc.look, sc.hand_camera.rate_hz);
+      const Placement start{look_at_rotation(sc.arm.start_tool_position, sc.arm.start_look_at),
+                            sc.arm.start_tool_position};
+      cv::imwrite(stem + "_hand.png", hand.render(scene, start));
+      // Near the first fruit, moving towards it at 0.3 m/s.
+      const Vec3 fruit = scene.fruit().front().position;
+      const Vec3 axis = (fruit - sc.arm.start_tool_position).normalized();
+      const Vec3 near = fruit - 0.2 * axis;
+      const Vec3 before = near - 0.01 * axis;
+      cv::imwrite(stem + "_hand_near.png", hand.render(scene, {look_at_rotation(near, fruit), near},
+                                                       {look_at_rotation(before, fruit), before}));
+    }
   }
 }
 

@@ -54,6 +54,25 @@ TEST(Scenario, RejectsUnknownKeysAndBadValues) {
   expect_error("name: t\nfruit_size: {min_mm: 80, max_mm: 70}\n", "max_mm");
   expect_error("name: t\ncameras: {fixed_extrinsic_truth: {rotation: [1, 0, 0, 0, 2, 0, 0, 0, 1]}}\n", "rotation");
   expect_error("name: t\nfruit:\n  - {position_mm: [1, 2]}\n", "position_mm");
+  expect_error("name: t\nlook: {style: photo}\n", "style");
+  expect_error("name: t\nlook: {green_fraction: 0.7, half_ripe_fraction: 0.4}\n", "half_ripe_fraction");
+  expect_error("name: t\nlook: {exposure_time_ms: -1}\n", "exposure_time_ms");
+}
+
+TEST(Scenario, LookIsFlatUnlessAskedAndCarriesTheSeed) {
+  const auto flat = config::Document::load_string("name: t\nseed: 9\n");
+  EXPECT_FALSE(Scenario::from_config(flat.root()).look.field());
+  const auto doc = config::Document::load_string(
+      "name: t\nseed: 9\nlook: {style: field, green_fraction: 0.2, half_ripe_fraction: 0.1, exposure_time_ms: 4, "
+      "auto_exposure: false}\n");
+  const Scenario s = Scenario::from_config(doc.root());
+  doc.check_unused();
+  EXPECT_TRUE(s.look.field());
+  EXPECT_DOUBLE_EQ(s.look.green_fraction, 0.2);
+  EXPECT_DOUBLE_EQ(s.look.half_ripe_fraction, 0.1);
+  EXPECT_DOUBLE_EQ(s.look.exposure_time_s, 0.004);
+  EXPECT_FALSE(s.look.auto_exposure);
+  EXPECT_EQ(s.look.seed, 9u);
 }
 
 // The simulator's true fixed-camera extrinsic (eq. 4-1's rotation, a
