@@ -83,7 +83,7 @@ Placement placement_rpy(const config::Node& n, const Vec3& position, const Vec3&
 
 // The simulated gripper's camera (see ArmSetup::hand_eye).
 Vec3 hand_eye_position() { return {0.014, -0.009, -0.048}; }
-Vec3 hand_eye_rpy_deg() { return {1.5, -2.5, 3.0}; }
+Vec3 hand_eye_rpy_deg() { return {0.6, -0.8, 1.5}; }
 
 }  // namespace
 

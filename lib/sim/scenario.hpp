@@ -125,7 +125,7 @@ struct ArmSetup {
   // The camera-in-hand's TRUE optical frame in the tool frame (the software
   // has its own estimate, config/cameras/hand_eye.yaml). Default: the
   // simulated gripper's camera, in the palm beside the IR sensor, 17 mm off
-  // the gripper axis and a few degrees off parallel (scenario key
+  // the gripper axis, its optical axis 1 degree off the tool's (scenario key
   // arm.hand_eye_truth).
   Placement hand_eye = standard_hand_eye();
   static Placement standard_hand_eye();
