@@ -18,7 +18,8 @@ HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrat
             {cfg_.goal_progress_step, cfg_.goal_progress_angle, cfg_.timeouts.stall}),
       ledger_({cfg_.max_attempts_per_fruit, cfg_.same_fruit_distance, cfg_.same_sight_angle, cfg_.reused_id_distance}),
       hand_(cfg_),
-      ir_(cfg_) {}
+      ir_(cfg_),
+      orientation_law_({cfg_.gains.kp_orient, cfg_.gains.kd_orient, cfg_.gains.derivative_filter}) {}
 
 // ---------------------------------------------------------------- transitions
 
@@ -57,6 +58,10 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
                                 MachineOutput& out) {
   end_fruit(outcome, detail, now, out);
   hand_.forget_fruit();
+  head_home(retreat, now, out);
+}
+
+void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
     start_goal(retreat_goal(), State::kRetreat, now, out);
   } else {
@@ -78,6 +83,7 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
   const std::string fruit = current_ ? "fruit " + std::to_string(current_->id) : "";
   switch (state_) {
     case State::kOrient:
+    case State::kOrientPd:
       // The aim is a means to get the fruit into the hand image: an arm stopped short of it (a joint
       // limit just before the viewpoint) with the fruit well inside the image acquires it from there.
       if (in_hand_view(cfg_.hand_camera, camera(), current_->estimate, cfg_.in_view_margin)) {
@@ -178,7 +184,13 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
 void HarvestMachine::orient(rt::Micros now, MachineOutput& out) {
   const OrientGoal g = orient_goal(cfg_, tool(), current_->estimate, current_->from_viewpoint);
   current_->from_viewpoint = g.from_viewpoint;
-  start_goal(g.goal, State::kOrient, now, out);
+  if (g.from_viewpoint || cfg_.orient_law != "thesis_pd") return start_goal(g.goal, State::kOrient, now, out);
+  // The thesis's law turns the tool in place to where it converges, watched as a goal.
+  Eigen::Isometry3d aimed = tool();
+  aimed.linear() = aimed_with_roll(tool(), current_->estimate, home_x());
+  goal_.start(aimed, now);
+  orientation_law_.reset();
+  enter(State::kOrientPd, now, out);
 }
 
 // ---------------------------------------------------------------- inputs
@@ -195,12 +207,6 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
   return out;
 }
 
-MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
-  if (current_ && spec(state_).follows_fruit && msg.status == fruit_detections_t::STATUS_OK && robot_)
-    hand_.on_detections(msg, *current_, camera(), now);
-  return {};
-}
-
 MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micros now) {
   MachineOutput out;
   robot_ = msg;
@@ -208,11 +214,6 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
   if (!running()) return out;
   if (const auto f = robot_fault(msg)) fault(*f, now, out);
   return out;
-}
-
-MachineOutput HarvestMachine::on_ir(const ir_range_t& msg, rt::Micros now) {
-  ir_.on_reading(msg, now, state_ == State::kIrApproach);
-  return {};
 }
 
 MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros now) {
@@ -225,10 +226,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
   }
   const bool holding = msg.state == gripper_state_t::STATE_HOLDING;
   if (state_ == State::kGrasp && holding) {
-    // Pull the fruit off: back along the tool axis while twisting about it.
-    Eigen::Isometry3d g = back_along_axis(tool(), std::nullopt, cfg_.pull_distance);
-    g.linear() = g.linear() * Eigen::AngleAxisd(cfg_.twist_angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    start_goal(g, State::kDetach, now, out);
+    start_goal(detach_goal(tool(), cfg_.pull_distance, cfg_.twist_angle), State::kDetach, now, out);
   } else if (state_ == State::kGrasp && msg.state == gripper_state_t::STATE_CLOSED) {
     out.gripper = gripper(gripper_command_t::ACTION_OPEN);
     fail_fruit(fruit_outcome_t::FAILED_GRASP, "gripper closed on nothing", true, now, out);
@@ -237,13 +235,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
     fail_fruit(fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper", false, now, out);
   } else if (state_ == State::kRelease && msg.state == gripper_state_t::STATE_OPEN && current_) {
     end_fruit(fruit_outcome_t::PICKED, "", now, out);
-    // Out of the canopy the way the gripper came in (after a drop pose it is out already), then home.
-    if (approach_from_ && cfg_.release_at_detach) {
-      start_goal(retreat_goal(), State::kRetreat, now, out);
-    } else {
-      start_goal(cfg_.home_pose, State::kReturn, now, out);
-    }
-    approach_from_.reset();
+    head_home(approach_from_ && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
   }
   return out;
 }
@@ -369,6 +361,11 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       out.robot = twist(Twist{});
       if (hand_.fresh(now) && hand_.seen_at() > entered_at_) enter(State::kApproach, now, out);
       break;
+    case State::kOrientPd:
+      if (goal_.reached(tool())) return goal_reached(now, out);
+      if (goal_.stalled(tool(), now)) return motion_blocked("stalled", now, out);
+      out.robot = twist(orientation_law_.update(tool(), current_->estimate, home_x(), cfg_.tick_period_s));
+      break;
     case State::kApproach:
       approach_step(now, out);
       break;
@@ -389,6 +386,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
 void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
   switch (state_) {
     case State::kOrient:
+    case State::kOrientPd:
       approach_from_ = tool().translation();
       enter(State::kAcquire, now, out);
       break;

@@ -42,6 +42,7 @@
 #include "servo/harvest/goal_monitor.hpp"
 #include "servo/harvest/hand_tracker.hpp"
 #include "servo/harvest/ir_guidance.hpp"
+#include "servo/harvest/orientation_law.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
 #include "servo/servo_config.hpp"
@@ -61,9 +62,16 @@ class HarvestMachine {
   HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach);
 
   MachineOutput on_targets(const targets_t& msg, rt::Micros now);
-  MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now);
+  MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
+    if (current_ && spec(state_).follows_fruit && msg.status == fruit_detections_t::STATUS_OK && robot_)
+      hand_.on_detections(msg, *current_, camera(), now);
+    return {};
+  }
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
-  MachineOutput on_ir(const ir_range_t& msg, rt::Micros now);
+  MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
+    ir_.on_reading(msg, now, state_ == State::kIrApproach);
+    return {};
+  }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
   MachineOutput on_operator(const operator_command_t& msg, rt::Micros now);
   MachineOutput on_estop(const emergency_stop_t& msg, rt::Micros now);
@@ -130,11 +138,14 @@ class HarvestMachine {
   void orient(rt::Micros now, MachineOutput& out);
   // RETREAT goal: back by retreat_distance, or out of the canopy to abreast
   // of where the approach began, whichever is farther.
+  Eigen::Vector3d home_x() const { return cfg_.home_pose.rotation().col(0); }  // the roll ORIENT_PD holds
   Eigen::Isometry3d retreat_goal() const { return back_along_axis(tool(), approach_from_, cfg_.retreat_distance); }
 
   // Ends the current fruit with an outcome; `retreat` pulls back along the
   // tool axis before returning home.
   void fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now, MachineOutput& out);
+  // Out of the canopy the way the gripper came in (`retreat`: back along the tool axis first), then home.
+  void head_home(bool retreat, rt::Micros now, MachineOutput& out);
   // Records an outcome of the current fruit and lets it go.
   void end_fruit(int8_t outcome, const std::string& detail, rt::Micros now, MachineOutput& out);
   void noted(const fruit_outcome_t& o, MachineOutput& out);
@@ -147,6 +158,7 @@ class HarvestMachine {
   FruitLedger ledger_;
   HandTracker hand_;
   IrGuidance ir_;
+  OrientationLaw orientation_law_;
 
   State state_ = State::kIdle;
   bool paused_ = false;

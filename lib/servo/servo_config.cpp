@@ -126,6 +126,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.in_view_margin = n.get("in_view_margin", c.in_view_margin, {0.0, 0.49});
   c.sight_aim_margin = n.get("sight_aim_margin", c.sight_aim_margin, {0.0, 0.5});
   c.approach_mode = n.choice("approach_mode", c.approach_mode, {"reconstruction", "tbz"});
+  c.orient_law = n.choice("orient_law", c.orient_law, {"pose_goal", "thesis_pd"});
   if (c.ir_approach_speed > c.max_linear_speed) n.fail("ir_approach_speed", "a speed no greater than max_linear_speed");
   if (c.ir_min_speed > c.ir_approach_speed) n.fail("ir_min_speed", "a speed no greater than ir_approach_speed");
   if (c.ir_braking_decel > c.max_linear_accel)
@@ -153,6 +154,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.gains.derivative_filter = g.get("derivative_filter", c.gains.derivative_filter, {0.0, 1.0});
   c.gains.centring_tolerance = g.get("centring_tolerance", c.gains.centring_tolerance, nonneg);
   c.gains.sway_window = g.get("sway_window", c.gains.sway_window, nonneg);
+  c.gains.kp_orient = g.get("kp_orient", c.gains.kp_orient, {0.01, 100.0});
+  c.gains.kd_orient = g.get("kd_orient", c.gains.kd_orient, nonneg);
 
   const config::Node t = n.child("timeouts_s");
   Timeouts& to = c.timeouts;

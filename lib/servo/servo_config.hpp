@@ -47,6 +47,9 @@ struct Gains {
   // amplitude away when the fingers meet, from where it was last seen up to
   // nearly two.
   double sway_window = 2.5;
+  // orient_law thesis_pd: omega = kp_orient e + kd_orient de/dt on the angles of eq. 6-19, 6-20, 6-23 (eq. 6-24)
+  double kp_orient = 2.0;   // [1/s]
+  double kd_orient = 0.05;  // [s]
 };
 
 struct Timeouts {
@@ -150,6 +153,11 @@ struct ServoConfig {
   Timeouts timeouts;
   CameraIntrinsics hand_camera;
   std::string approach_mode = "reconstruction";  // pluggable approach strategy (approach.hpp)
+  // ORIENT in place: "pose_goal" (a pose goal the robot link runs along a
+  // smooth path) or "thesis_pd" (the thesis's PD law on the aim angles,
+  // eq. 6-24, as tool twists, also holding the roll about the gripper axis
+  // at the home pose's). Viewpoints are always reached by a pose goal.
+  std::string orient_law = "pose_goal";
 
   // Reads the `servo` section layout documented in docs/servo-controller.md.
   // Throws config::Error (bad value, home/drop pose outside the workspace).

@@ -113,6 +113,12 @@ Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::opti
   return g;
 }
 
+Eigen::Isometry3d detach_goal(const Eigen::Isometry3d& tool, double pull, double twist) {
+  Eigen::Isometry3d g = back_along_axis(tool, std::nullopt, pull);
+  g.linear() = g.linear() * Eigen::AngleAxisd(twist, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return g;
+}
+
 Eigen::Isometry3d inside_workspace(const Workspace& ws, const Eigen::Vector3d& from, const Eigen::Isometry3d& goal) {
   if (ws.contains(goal.translation())) return goal;
   const Eigen::Vector3d to = goal.translation();

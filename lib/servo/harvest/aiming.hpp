@@ -54,6 +54,9 @@ std::optional<Eigen::Isometry3d> aim_from_viewpoint(const ServoConfig& cfg, cons
 Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
                                   double at_least);
 
+// DETACH: the tool pulled `pull` back along its axis while turned `twist` about it.
+Eigen::Isometry3d detach_goal(const Eigen::Isometry3d& tool, double pull, double twist);
+
 // A goal outside the workspace pulled back along the straight line from
 // `from` to the furthest point still inside (the goal itself if inside).
 Eigen::Isometry3d inside_workspace(const Workspace& ws, const Eigen::Vector3d& from, const Eigen::Isometry3d& goal);

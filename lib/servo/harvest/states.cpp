@@ -13,12 +13,13 @@ using O = fruit_outcome_t;
 
 // clang-format off
 constexpr int8_t kNo = 0;
-constexpr std::array<StateSpec, 18> kStates{{
+constexpr std::array<StateSpec, 19> kStates{{
   // state              name           motion        timeout          running follows rests  when the timeout expires
   {State::kIdle,       "IDLE",        M::kNone,     nullptr,          false,  false,  true,  E::kNone, kNo, ""},
   {State::kSelect,     "SELECT",      M::kNone,     &T::select,       true,   false,  false, E::kDone, kNo,
                                                                                    "no view from the fixed camera"},
   {State::kOrient,     "ORIENT",      M::kPoseGoal, &T::motion,       true,   false,  false, E::kMotionBlocked, kNo, ""},
+  {State::kOrientPd,   "ORIENT_PD",   M::kTwist,    &T::motion,       true,   false,  false, E::kMotionBlocked, kNo, ""},
   {State::kAcquire,    "ACQUIRE",     M::kTwist,    &T::acquire,      true,   true,   false, E::kGiveUp, O::LOST,
                                                                                    "not seen by the camera-in-hand"},
   {State::kApproach,   "APPROACH",    M::kTwist,    &T::approach,     true,   true,   false, E::kGiveUpRetreat, O::LOST,

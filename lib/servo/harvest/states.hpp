@@ -15,6 +15,7 @@ enum class State {
   kIdle,
   kSelect,
   kOrient,
+  kOrientPd,  // ORIENT by the thesis's PD law (orient_law: thesis_pd)
   kAcquire,
   kApproach,
   kReacquire,

@@ -143,5 +143,41 @@ TEST(ClosedLoop, MotionThatNeverCompletesIsAFaultAndStops) {
   EXPECT_EQ(loop.outcome(1)->detail, "the arm could not reach a viewpoint of it (did not complete)");
 }
 
+// The thesis's own rotation law (orient_law: thesis_pd, eq. 6-24): ORIENT_PD
+// turns the gripper in place by twists, holding the roll about its axis at the
+// home pose's, and experiment I is picked as with the pose goal.
+TEST(ClosedLoop, ThesisOrientationLawTurnsInPlaceAndPicksExperimentOne) {
+  WorldSpec spec = experiment_one();
+  ServoConfig cfg = test_config();
+  cfg.orient_law = "thesis_pd";
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kOrientPd, 5.0));
+  const Eigen::Vector3d from = loop.arm.tool().translation();
+  const rt::Micros turning = loop.bus.now();
+  ASSERT_TRUE(loop.run_until_state(State::kAcquire, 10.0)) << loop.ctrl.machine().summary();
+  int turns = 0;
+  for (const auto& [time, c] : loop.commands()) {
+    if (time <= turning || time >= loop.bus.now()) continue;
+    EXPECT_EQ(c.type, +robot_command_t::TYPE_TWIST) << "at " << time;
+    EXPECT_LT(linear_speed(c), 1e-12);
+    turns += angular_speed(c) > 0.1;
+  }
+  EXPECT_GT(turns, 10);
+  EXPECT_LT((loop.arm.tool().translation() - from).norm(), 0.002);  // turned in place
+  // The axis on the fixed camera's estimate, the roll that of home (x axis across the axis, closest to home's).
+  const Eigen::Isometry3d tool = loop.arm.tool();
+  const Eigen::Vector3d home_x = cfg.home_pose.rotation().col(0);
+  const Eigen::Vector3d across = (home_x - home_x.dot(tool.rotation().col(2)) * tool.rotation().col(2)).normalized();
+  EXPECT_LT(std::acos(std::min(1.0, tool.rotation().col(0).dot(across))), cfg.orient_tolerance);
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  const auto states = published_states(loop);
+  EXPECT_NE(std::find(states.begin(), states.end(), "ORIENT_PD"), states.end());
+  EXPECT_EQ(std::find(states.begin(), states.end(), "ORIENT"), states.end());
+  expect_within_limits(loop);
+}
+
 }  // namespace
 }  // namespace harvest::servo::testing

@@ -137,6 +137,15 @@ TEST(Aiming, BackAlongTheAxisToAbreastOfAPointOrAtLeastSoFar) {
   EXPECT_NEAR(back_along_axis(tool, std::nullopt, 0.15).translation().x(), 0.0, 1e-12);
 }
 
+TEST(Aiming, DetachPullsBackAlongTheAxisWhileTwistingAboutIt) {
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  tool.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);
+  const Eigen::Isometry3d g = detach_goal(tool, 0.1, 0.5236);
+  EXPECT_NEAR(g.translation().z(), 0.4, 1e-12);
+  EXPECT_NEAR(g.rotation().col(2).z(), 1.0, 1e-12);                                // the axis unchanged
+  EXPECT_NEAR(std::atan2(g.rotation()(1, 0), g.rotation()(0, 0)), 0.5236, 1e-12);  // turned about it
+}
+
 TEST(Aiming, AGoalOutsideTheWorkspaceIsPulledBackAlongTheWayThere) {
   const Workspace ws;  // box y up to 1.4
   Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
