@@ -10,9 +10,11 @@
 #include <ctime>
 #include <iostream>
 
+#include "launch/site_check.hpp"
 #include "launch/supervisor.hpp"
 #include "runtime/heartbeat.hpp"
 #include "runtime/live_runner.hpp"
+#include "runtime/netcheck.hpp"
 #include "runtime/process_main.hpp"
 
 namespace harvest::launch {
@@ -38,6 +40,10 @@ void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
             << "\n";
   std::cout << "lcm url: " << (set.lcm_url.empty() ? "(LCM default)" : set.lcm_url)
             << (set.prefix.empty() ? "" : ", prefix " + set.prefix) << "\n";
+  if (!set.site.file.empty() || !set.site.values.empty()) {
+    std::cout << "site: " << (set.site.file.empty() ? "(command line only)" : set.site.file.string()) << "\n";
+    for (const auto& [k, v] : set.site.values) std::cout << "  " << k << " = " << v << "\n";
+  }
   if (set.recording.enabled) {
     std::cout << "recording:";
     for (const auto& a : recorder_command_line(set, "<time>")) std::cout << " " << a;
@@ -62,7 +68,7 @@ void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
 
 int launch_main(int argc, char** argv) {
   CLI::App app("Start, watch and stop a process set (docs/launcher.md)", "harvest-launch");
-  std::string set_path, group, exit_with, bin_dir, instance = "launch", log_level = "info", lcm_url;
+  std::string site_path, set_path, group, exit_with, bin_dir, instance = "launch", log_level = "info", lcm_url;
   std::vector<std::string> overrides;
   bool check = false, no_table = false;
   app.add_option("set", set_path, "process set file (config/sets/*.yaml)")->required();
@@ -71,6 +77,8 @@ int launch_main(int argc, char** argv) {
   app.add_option("--exit-with", exit_with, "stop the set when this process exits; exit with its code");
   app.add_option("--bin-dir", bin_dir, "where harvest-* executables are (default: the set's bin_dir)");
   app.add_option("--set", overrides, "override a value of the set file, KEY.PATH=VALUE (repeatable)");
+  app.add_option("--site", site_path,
+                 "site file of this robot (config/site/*.yaml: CAN bus, cameras, serial port); replaces the set's");
   app.add_option("--lcm-url", lcm_url, "LCM URL (overrides the set's lcm_url)");
   app.add_option("--instance", instance, "instance name of the launcher's own PROCESS_STATUS");
   app.add_flag("--no-table", no_table, "plain output lines even on a terminal");
@@ -89,8 +97,12 @@ int launch_main(int argc, char** argv) {
   SetSpec set;
   std::string effective;
   try {
-    config::Document doc = rt::load_config(set_path, overrides);
-    set = parse_set(doc.root(), set_path, bin_dir);
+    std::vector<std::string> set_overrides;
+    SiteOverrides site;
+    site.file = site_path;
+    split_site_overrides(overrides, set_overrides, site);
+    config::Document doc = rt::load_config(set_path, set_overrides);
+    set = parse_set(doc.root(), set_path, bin_dir, site);
     effective = doc.emit();
   } catch (const config::Error& e) {
     std::cerr << "harvest-launch: invalid set: " << e.what() << "\n";
@@ -107,8 +119,13 @@ int launch_main(int argc, char** argv) {
     std::cerr << "harvest-launch: --exit-with " << exit_with << ": no such process in the started set\n";
     return 2;
   }
-  const auto problems = preflight(set, selected);
-  if (check) print_plan(set, selected);
+  auto problems = preflight(set, selected);
+  for (auto& p : check_site(set, selected)) problems.push_back(std::move(p));
+  if (check) {
+    print_plan(set, selected);
+    for (const auto& f : rt::check_network())
+      if (!f.ok) std::cerr << "harvest-launch: warning: network: " << f.what << "; fix: " << f.fix << "\n";
+  }
   for (const auto& p : problems) std::cerr << "harvest-launch: " << p << "\n";
   if (!problems.empty()) {
     std::cerr << "harvest-launch: set '" << set.name << "' cannot start (" << problems.size() << " problem"

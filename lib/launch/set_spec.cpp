@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -59,11 +60,75 @@ bool executable(const std::filesystem::path& p) {
   return std::filesystem::is_regular_file(p) && access(p.c_str(), X_OK) == 0;
 }
 
+// The site: the set's `site` file (or the command line's), then single values.
+SiteSpec load_site(const config::Node& root, const std::filesystem::path& set_file, const SiteOverrides& over) {
+  SiteSpec site;
+  if (!over.file.empty())
+    site.file = std::filesystem::absolute(over.file).lexically_normal();
+  else if (root.has("site"))
+    site.file = beside(set_file, root.get<std::string>("site", ""));
+  config::Document doc = site.file.empty() ? config::Document::load_string("{}", "<no site file>")
+                                           : config::Document::load_file(site.file);
+  for (const auto& a : over.assignments) {
+    const auto eq = a.find('=');
+    if (eq == std::string::npos || eq == 0 || a.substr(0, eq).find('.') != std::string::npos)
+      throw config::Error("--set site." + a + ": expected site.KEY=VALUE (a site file is one flat list of values)");
+    doc.apply_override(a);
+  }
+  const config::Node n = doc.root();
+  if (!n.yaml().IsMap() && !n.yaml().IsNull())
+    throw config::Error(doc.file() + ": a site file is a mapping KEY: VALUE (docs/field-setup.md)");
+  for (const auto& k : n.keys()) {
+    const YAML::Node v = n.yaml()[k];
+    if (!v.IsScalar()) n.fail(k, "a single value (device path, bus string), got " + config::detail::describe(v));
+    if (k.empty() || k.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
+                         std::string::npos)
+      n.fail(k, "a key of letters, digits and '_'");
+    site.values[k] = v.Scalar();
+  }
+  return site;
+}
+
+// Replaces ${KEY} with the site's value; records the keys used.
+std::string substitute(const std::string& text, const SiteSpec& site, const std::string& where,
+                       std::vector<std::string>& used) {
+  std::string out;
+  std::size_t pos = 0;
+  for (;;) {
+    const std::size_t start = text.find("${", pos);
+    if (start == std::string::npos) break;
+    const std::size_t end = text.find('}', start);
+    if (end == std::string::npos) throw config::Error(where + ": '" + text + "': unterminated ${");
+    const std::string key = text.substr(start + 2, end - start - 2);
+    const auto it = site.values.find(key);
+    if (it == site.values.end())
+      throw config::Error(where + ": ${" + key + "} is not a site value (" +
+                          (site.file.empty() ? std::string("the set names no site file; give `site:` in the set or "
+                                                           "harvest-launch --site FILE")
+                                             : "not in " + site.file.string()) +
+                          "; or harvest-launch --set site." + key + "=VALUE)");
+    out += text.substr(pos, start - pos) + it->second;
+    if (std::find(used.begin(), used.end(), key) == used.end()) used.push_back(key);
+    pos = end + 1;
+  }
+  return out + text.substr(pos);
+}
+
 }  // namespace
 
+void split_site_overrides(const std::vector<std::string>& overrides, std::vector<std::string>& set_overrides,
+                          SiteOverrides& site) {
+  for (const auto& o : overrides) {
+    if (o.rfind("site.", 0) == 0)
+      site.assignments.push_back(o.substr(5));
+    else
+      set_overrides.push_back(o);
+  }
+}
+
 SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_file,
-                  const std::filesystem::path& bin_dir_override) {
-  check_keys(root, {"name", "bin_dir", "lcm_url", "prefix", "processes", "recording"});
+                  const std::filesystem::path& bin_dir_override, const SiteOverrides& site_overrides) {
+  check_keys(root, {"name", "bin_dir", "lcm_url", "prefix", "site", "processes", "recording"});
   SetSpec s;
   s.file = std::filesystem::absolute(set_file).lexically_normal();
   s.name = root.get<std::string>("name", set_file.stem().string());
@@ -71,6 +136,7 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
                                        : bin_dir_override;
   s.lcm_url = root.get<std::string>("lcm_url", "");
   s.prefix = root.get<std::string>("prefix", "");
+  s.site = load_site(root, s.file, site_overrides);
 
   std::set<std::string> names;
   for (const config::Node& p : root.children("processes")) {
@@ -82,9 +148,12 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
       p.fail("name", "a non-empty name without spaces or '/', got '" + ps.name + "'");
     if (!names.insert(ps.name).second) p.fail("name", "a unique name, '" + ps.name + "' is used twice");
     ps.command = p.required<std::string>("command");
-    ps.args = strings(p, "args");
+    std::vector<std::string> used;
+    for (const auto& a : strings(p, "args")) ps.args.push_back(substitute(a, s.site, s.file.string() + ": " + p.key_path("args"), used));
     const config::Node env = p.child("env");
-    for (const auto& k : env.keys()) ps.env[k] = env.required<std::string>(k);
+    for (const auto& k : env.keys())
+      ps.env[k] = substitute(env.required<std::string>(k), s.site, s.file.string() + ": " + env.key_path(k), used);
+    if (!used.empty()) s.site.used_by[ps.name] = used;
     ps.cwd = beside(s.file, p.get<std::string>("cwd", "../.."));
     ps.group = p.get<std::string>("group", "default");
     ps.after = strings(p, "after");
@@ -113,9 +182,10 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
   return s;
 }
 
-SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override) {
+SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override,
+                 const SiteOverrides& site) {
   const config::Document doc = config::Document::load_file(set_file);
-  return parse_set(doc.root(), set_file, bin_dir_override);
+  return parse_set(doc.root(), set_file, bin_dir_override, site);
 }
 
 std::vector<std::size_t> start_order(const SetSpec& set) {

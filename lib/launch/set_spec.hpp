@@ -52,6 +52,24 @@ struct RecordingSpec {
   std::string logger = "lcm-logger";
 };
 
+// One robot's hardware: the values a field set leaves open (CAN bus, camera
+// and serial device names), read from a small site file (config/site/*.yaml)
+// and substituted for ${KEY} in the processes' args and env
+// (docs/field-setup.md). The launcher's --site FILE replaces the set's `site`
+// file and --set site.KEY=VALUE overrides one value.
+struct SiteSpec {
+  std::filesystem::path file;                // empty: the set uses no site file
+  std::map<std::string, std::string> values;
+  // Site keys each process uses (process name -> keys), for the device check.
+  std::map<std::string, std::vector<std::string>> used_by;
+};
+
+// What the command line says about the site: another file, single values.
+struct SiteOverrides {
+  std::filesystem::path file;           // replaces the set's `site` (relative to the working directory)
+  std::vector<std::string> assignments;  // KEY=VALUE (the "site." prefix already removed)
+};
+
 struct SetSpec {
   std::string name;
   std::filesystem::path file;     // the set file
@@ -60,13 +78,21 @@ struct SetSpec {
   std::string prefix;
   std::vector<ProcessSpec> processes;
   RecordingSpec recording;
+  SiteSpec site;
 };
+
+// Splits the launcher's --set overrides: site.KEY=VALUE go to the site,
+// everything else to the set file.
+void split_site_overrides(const std::vector<std::string>& overrides, std::vector<std::string>& set_overrides,
+                          SiteOverrides& site);
 
 // Reads and validates a set (throws config::Error naming file and key).
 // `bin_dir_override` replaces the set's bin_dir (e.g. from --bin-dir).
+// `site` chooses another site file and overrides site values.
 SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_file,
-                  const std::filesystem::path& bin_dir_override = {});
-SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override = {});
+                  const std::filesystem::path& bin_dir_override = {}, const SiteOverrides& site = {});
+SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override = {},
+                 const SiteOverrides& site = {});
 
 // Start order respecting `after` (declaration order otherwise). Throws
 // config::Error on unknown names or cycles.

@@ -312,5 +312,60 @@ TEST(Launch, GroupStartsOnlyItsProcessesAndCheckStartsNothing) {
   EXPECT_NE(none.output().find("no process in group 'nope'"), std::string::npos) << none.output();
 }
 
+// The shipped field sets, checked on a machine without the robot's hardware
+// (this one: no CAN interface, no cameras, no end-effector serial adapter):
+// --check names each missing device on its own line and fails; with the
+// devices pointed at what exists, the same sets are valid.
+TEST(Launch, CheckNamesEachMissingFieldDevice) {
+  testing::TempDir dir;
+  const std::string bin_dir = std::filesystem::path(testing::bin("harvest-launch")).parent_path().string();
+  const auto check = [&](const std::string& set, std::vector<std::string> extra, const std::string& out) {
+    std::vector<std::string> argv{testing::bin("harvest-launch"), testing::source_path("config/sets/" + set),
+                                  "--check", "--bin-dir", bin_dir};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<ChildProcess>(argv, dir / out);
+    return child;
+  };
+  auto robot = check("field-robot.yaml", {}, "robot.out");
+  EXPECT_EQ(robot->wait(20s), 1) << robot->output();
+  const std::string r = robot->output();
+  const bool has_can0 = std::filesystem::exists("/sys/class/net/can0");
+  if (!has_can0) {
+    EXPECT_NE(r.find("harvest-launch: robot-link: site can_bus = socketcan:can0: CAN interface can0 does not exist "
+                     "on this machine"),
+              std::string::npos)
+        << r;
+  }
+  EXPECT_NE(r.find("harvest-launch: ee-bridge: site ee_serial = /dev/harvest/ee-serial: /dev/harvest/ee-serial does "
+                   "not exist: serial adapter unplugged"),
+            std::string::npos)
+      << r;
+  EXPECT_NE(r.find(has_can0 ? "cannot start (" : "cannot start (2 problems)"), std::string::npos) << r;
+  EXPECT_NE(r.find("bus=socketcan:can0"), std::string::npos) << r;  // the plan shows the substituted line
+
+  auto vision = check("field-vision.yaml", {}, "vision.out");
+  EXPECT_EQ(vision->wait(20s), 1) << vision->output();
+  const std::string v = vision->output();
+  for (const std::string camera : {"fixed", "hand"})
+    EXPECT_NE(v.find("harvest-launch: camera-" + camera + ": site camera_" + camera + " = /dev/harvest/camera-" +
+                     camera + ": /dev/harvest/camera-" + camera + " does not exist: camera unplugged"),
+              std::string::npos)
+        << v;
+  EXPECT_NE(v.find("cannot start (2 problems)"), std::string::npos) << v;
+
+  // Pointed at devices this machine has: valid. --set site.KEY for one value,
+  // --site FILE for another robot's site file.
+  auto robot_ok = check("field-robot.yaml",
+                        {"--set", "site.can_bus=udp_multicast:239.74.163.2:43113?ttl=0", "--set",
+                         "site.ee_serial=/dev/null"},
+                        "robot_ok.out");
+  EXPECT_EQ(robot_ok->wait(20s), 0) << robot_ok->output();
+  EXPECT_NE(robot_ok->output().find("set 'field-robot' is valid"), std::string::npos) << robot_ok->output();
+  std::ofstream(dir / "robot-2.yaml") << "camera_fixed: /dev/null\ncamera_hand: /dev/zero\n";
+  auto vision_ok = check("field-vision.yaml", {"--site", (dir / "robot-2.yaml").string()}, "vision_ok.out");
+  EXPECT_EQ(vision_ok->wait(20s), 0) << vision_ok->output();
+  EXPECT_NE(vision_ok->output().find("device.path=/dev/zero"), std::string::npos) << vision_ok->output();
+}
+
 }  // namespace
 }  // namespace harvest
