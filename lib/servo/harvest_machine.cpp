@@ -245,8 +245,8 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
   out.status_changed = true;
   const std::string who = msg.source.empty() ? "operator" : msg.source;
   if (const auto refused = refusal(msg.command, {state_, paused_, estop_, robot_fresh(now)})) {
-    note_ = "command refused: " + *refused;
-    out.log = note_ + " (from " + who + ")";
+    note_ = "command refused: " + *refused + " (from " + who + ")";  // harvest-operator reads the sender
+    out.log = note_;
     return out;
   }
   switch (msg.command) {

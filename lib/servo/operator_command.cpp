@@ -49,4 +49,17 @@ OperatorMessage make_operator_message(const std::string& verb, const std::string
   return c;
 }
 
+Acknowledgement acknowledgement(const std::string& verb, const std::string& source, const harvest_status_t& status) {
+  const auto has = [&](const std::string& text) { return status.summary.find(text) != std::string::npos; };
+  if (verb == "estop") return {status.estop ? AckState::kAccepted : AckState::kWaiting, status.summary};
+  if (verb == "estop-clear") return {status.estop ? AckState::kWaiting : AckState::kAccepted, status.summary};
+  if (has("(from " + source + ")") && has("command refused")) return {AckState::kRefused, status.summary};
+  static const std::map<std::string, std::string> accepted{
+      {"start", "started by "},   {"pause", "paused by "},  {"resume", "resumed by "},
+      {"abort", "aborted by "},   {"home", "homing ("},     {"reset-fault", "fault reset by "}};
+  const auto it = accepted.find(verb);
+  if (it != accepted.end() && has(it->second + source)) return {AckState::kAccepted, status.summary};
+  return {AckState::kWaiting, status.summary};
+}
+
 }  // namespace harvest::servo

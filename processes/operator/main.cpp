@@ -1,14 +1,23 @@
 // harvest-operator: sends one operator command or emergency stop to the
-// servo controller from the shell (docs/servo-controller.md).
+// servo controller from the shell and waits for its acknowledgement
+// (docs/servo-controller.md).
 //
 //   harvest-operator start|pause|resume|abort|home|reset-fault|estop|estop-clear
 //                    [--source WHO] [--reason TEXT] [--lcm-url URL] [--prefix P] [--repeat N]
+//                    [--timeout S] [--no-wait]
+// Exit codes: 0 acknowledged (or sent, with --no-wait), 1 cannot publish,
+// 2 bad command line, 3 nobody answered (no HARVEST_STATUS within --timeout),
+// 4 refused by the controller, 5 the controller answers but did not
+// acknowledge this command within --timeout.
 #include <CLI/CLI.hpp>
+#include <harvest/harvest_status_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 #include "runtime/channels.hpp"
@@ -20,24 +29,40 @@ std::string default_source() {
   const char* user = std::getenv("USER");
   char host[256] = {};
   gethostname(host, sizeof(host) - 1);
-  return std::string(user ? user : "unknown") + "@" + host + " (harvest-operator)";
+  // The pid makes the sender unique, so the controller's reply names this very command.
+  return std::string(user ? user : "unknown") + "@" + host + " (harvest-operator " + std::to_string(getpid()) + ")";
 }
+
+struct StatusListener {
+  std::optional<harvest::harvest_status_t> latest;
+  int received = 0;
+  void on_status(const lcm::ReceiveBuffer*, const std::string&, const harvest::harvest_status_t* m) {
+    latest = *m;
+    ++received;
+  }
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Send an operator command or an emergency stop to the servo controller"};
+  CLI::App app{"Send an operator command or an emergency stop to the servo controller and wait for its reply"};
   std::string verb, source = default_source(), reason, url, prefix;
   int repeat = 0;  // 0: three copies of an emergency stop, one of anything else
+  double timeout_s = 2.0;
+  bool no_wait = false;
   app.add_option("command", verb, "start, pause, resume, abort, home, reset-fault, estop, estop-clear")
       ->required()
       ->check(CLI::IsMember(harvest::servo::operator_verbs()));
-  app.add_option("--source", source, "who sends it (default user@host)");
+  app.add_option("--source", source, "who sends it (default user@host (harvest-operator PID))");
   app.add_option("--reason", reason, "reason, for estop");
   app.add_option("--lcm-url", url, "LCM provider URL (default: $LCM_DEFAULT_URL or LCM's default)");
   app.add_option("--prefix", prefix, "channel prefix of the arm's process graph");
   app.add_option("--repeat", repeat, "send this many copies 20 ms apart (default: 3 for estop verbs, else 1)")
       ->check(CLI::Range(1, 100));
+  app.add_option("--timeout", timeout_s, "wait this long for the controller's acknowledgement [s]")
+      ->check(CLI::Range(0.1, 60.0))
+      ->capture_default_str();
+  app.add_flag("--no-wait", no_wait, "send and exit without waiting for the acknowledgement");
   CLI11_PARSE(app, argc, argv);
 
   if (repeat == 0) repeat = verb.rfind("estop", 0) == 0 ? 3 : 1;
@@ -47,6 +72,10 @@ int main(int argc, char** argv) {
     std::cerr << "harvest-operator: cannot open LCM (" << (url.empty() ? "default URL" : url) << ")\n";
     return 1;
   }
+  // Listen before sending: the controller replies at once.
+  StatusListener listener;
+  lcm.subscribe(prefix + harvest::channels::kHarvestStatus, &StatusListener::on_status, &listener);
+
   const auto now_us = std::chrono::duration_cast<std::chrono::microseconds>(
                           std::chrono::system_clock::now().time_since_epoch())
                           .count();
@@ -64,6 +93,36 @@ int main(int argc, char** argv) {
     }
     if (i + 1 < repeat) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  std::cout << "sent " << verb << " (" << repeat << "x) as " << source << "\n";
-  return 0;
+  std::cout << "sent " << verb << " (" << repeat << "x) as " << source << std::endl;
+  if (no_wait) return 0;
+
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  harvest::servo::Acknowledgement ack;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) break;
+    if (lcm.handleTimeout(static_cast<int>(left.count())) <= 0 || !listener.latest) continue;
+    ack = harvest::servo::acknowledgement(verb, source, *listener.latest);
+    if (ack.state != harvest::servo::AckState::kWaiting) break;
+  }
+  switch (ack.state) {
+    case harvest::servo::AckState::kAccepted:
+      std::cout << verb << ": acknowledged by the servo controller: " << ack.detail << "\n";
+      return 0;
+    case harvest::servo::AckState::kRefused:
+      std::cerr << "harvest-operator: " << verb << ": REFUSED by the servo controller: " << ack.detail << "\n";
+      return 4;
+    case harvest::servo::AckState::kWaiting:
+      break;
+  }
+  if (listener.received == 0) {
+    std::cerr << "harvest-operator: " << verb << ": nobody answered within " << timeout_s
+              << " s (no " << prefix << harvest::channels::kHarvestStatus
+              << " from a servo controller): is it running, on this LCM URL and prefix? (multicast route: "
+                 "`tools/harvest netfix`)\n";
+    return 3;
+  }
+  std::cerr << "harvest-operator: " << verb << ": the servo controller answers but did not acknowledge this command "
+            << "within " << timeout_s << " s; its state: " << listener.latest->summary << "\n";
+  return 5;
 }

@@ -132,14 +132,20 @@ class ServoProcess : public ::testing::Test {
     if (HasFailure() && controller_) std::cerr << controller_->output();
   }
 
-  // Runs harvest-operator to completion; true if it exited 0.
-  bool operate(const std::string& verb) {
-    ht::ChildProcess op({ht::bin("harvest-operator"), verb, "--lcm-url", url_, "--source", "integration-test"},
-                        dir_ / ("operator-" + verb + ".log"));
+  // Runs harvest-operator to completion (it waits for the controller's
+  // acknowledgement); true if it exited with `expected_rc` (0 acknowledged,
+  // 4 refused). Each call is its own sender, as each invocation is live.
+  bool operate(const std::string& verb, int expected_rc = 0) {
+    const std::string source = "integration-test-" + std::to_string(++operations_);
+    ht::ChildProcess op({ht::bin("harvest-operator"), verb, "--lcm-url", url_, "--source", source, "--timeout", "5"},
+                        dir_ / ("operator-" + verb + "-" + std::to_string(operations_) + ".log"));
     const int rc = op.wait(10s);
-    EXPECT_EQ(rc, 0) << op.output();
-    return rc == 0;
+    EXPECT_EQ(rc, expected_rc) << op.output();
+    if (expected_rc == 4) EXPECT_NE(op.output().find(verb + ": REFUSED by the servo controller"), std::string::npos);
+    if (expected_rc == 0) EXPECT_NE(op.output().find(verb + ": acknowledged by the servo controller"), std::string::npos);
+    return rc == expected_rc;
   }
+  int operations_ = 0;
 
   bool wait_status(const std::function<bool(const harvest_status_t&)>& pred, std::chrono::milliseconds timeout) {
     return ht::eventually(
@@ -227,8 +233,8 @@ TEST_F(ServoProcess, EmergencyStopPublishesStopAndNothingElseUntilCleared) {
   ASSERT_TRUE(wait_status([](const harvest_status_t& s) { return s.estop; }, 5s));
   std::this_thread::sleep_for(300ms);
   const Eigen::Vector3d held = tool_now();
-  ASSERT_TRUE(operate("start"));  // refused while latched
-  ASSERT_TRUE(operate("home"));   // refused while latched
+  ASSERT_TRUE(operate("start", 4));  // refused while latched, and harvest-operator says so
+  ASSERT_TRUE(operate("home", 4));   // refused while latched
   std::this_thread::sleep_for(1s);
   EXPECT_LT((tool_now() - held).norm(), 1e-9) << "the arm moved while the e-stop was latched";
   const std::size_t latched_end = recorder_->size();
@@ -303,6 +309,20 @@ TEST_F(ServoProcess, OperatorPauseResumeAbortAndHomeAreObeyed) {
   ASSERT_TRUE(wait_status([](const harvest_status_t& s) { return s.state == "HOMING"; }, 5s));
   ASSERT_TRUE(wait_status([](const harvest_status_t& s) { return s.state == "IDLE"; }, 20s));
   EXPECT_LT((tool_now() - home).norm(), 0.005);
+}
+
+// Nobody listening: harvest-operator says so and fails, instead of "sent".
+TEST(Operator, FailsWhenNobodyAnswers) {
+  ht::TempDir dir;
+  ht::ChildProcess op({ht::bin("harvest-operator"), "start", "--lcm-url", ht::unique_lcm_url(), "--timeout", "0.5"},
+                      dir / "operator.log");
+  EXPECT_EQ(op.wait(10s), 3) << op.output();
+  EXPECT_NE(op.output().find("start: nobody answered within 0.5 s (no HARVEST_STATUS from a servo controller)"),
+            std::string::npos)
+      << op.output();
+  ht::ChildProcess fire({ht::bin("harvest-operator"), "estop", "--lcm-url", ht::unique_lcm_url(), "--no-wait"},
+                        dir / "fire.log");
+  EXPECT_EQ(fire.wait(10s), 0) << fire.output();  // --no-wait: sent is all it knows
 }
 
 }  // namespace
