@@ -1,6 +1,8 @@
 #include "logtools/replay_tool.hpp"
 
 #include <CLI/CLI.hpp>
+#include <unistd.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <functional>
@@ -9,7 +11,10 @@
 #include <set>
 #include <stdexcept>
 
+#include <harvest/config_snapshot_t.hpp>
+
 #include "config/config.hpp"
+#include "runtime/channels.hpp"
 #include "runtime/log_io.hpp"
 #include "runtime/replay_runner.hpp"
 #include "servo/nodes.hpp"
@@ -56,6 +61,40 @@ NodeSpec parse_node_spec(const std::string& spec) {
   return s;
 }
 
+std::vector<LoggedConfig> logged_configs(const std::string& log, const std::string& prefix) {
+  std::vector<LoggedConfig> out;
+  std::set<std::string> seen;
+  const std::string channel = prefix + channels::kConfig;
+  for (const auto& r : rt::read_log(log)) {
+    if (r.channel != channel) continue;
+    config_snapshot_t m;
+    if (m.decode(r.data.data(), 0, static_cast<int>(r.data.size())) < 0) continue;
+    // A restarted process publishes again; its first snapshot is the one the
+    // recording started with.
+    if (!seen.insert(m.instance).second) continue;
+    out.push_back({m.process, m.instance, m.config_path, m.yaml, m.command_line, r.timestamp});
+  }
+  return out;
+}
+
+std::vector<NodeSpec> nodes_from_configs(const std::vector<LoggedConfig>& configs) {
+  std::vector<NodeSpec> out;
+  const auto& reg = node_registry();
+  for (const auto& c : configs) {
+    if (std::none_of(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == c.process; }))
+      continue;
+    NodeSpec s;
+    s.label = c.instance.empty() ? c.process : c.instance;
+    s.process = c.process;
+    // Relative paths inside the configuration (calibration files) resolve
+    // beside the file it was loaded from, as they did live.
+    s.config = c.config_path.empty() ? "<CONFIG of " + s.label + ">" : c.config_path;
+    s.yaml = c.yaml.empty() ? "{}" : c.yaml;
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
 namespace {
 
 struct BuiltNode {
@@ -72,14 +111,55 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   // ---- configuration: everything is checked before the log is touched ----
   std::vector<std::unique_ptr<BuiltNode>> built;
   std::function<std::vector<std::unique_ptr<BuiltNode>>()> build;
+  std::string input_log = o.input_log;  // the log's own nodes: from the moment all of them ran
+  CompareOptions compare_options = o.compare_options;
   try {
-    if (o.nodes.empty()) throw std::invalid_argument("no --node given (see --list-nodes)");
     std::vector<NodeSpec> specs;
     std::map<std::string, int> per_process;
-    for (const auto& n : o.nodes) {
-      specs.push_back(parse_node_spec(n));
-      ++per_process[specs.back().process];
+    if (o.nodes.empty()) {
+      // No --node: the nodes and configurations the log was recorded with.
+      const auto configs = logged_configs(o.input_log, o.prefix);
+      specs = nodes_from_configs(configs);
+      std::string used, skipped;
+      for (const auto& c : configs) {
+        const bool replayed =
+            std::any_of(specs.begin(), specs.end(), [&](const NodeSpec& s) { return s.label == c.instance; });
+        std::string& list = replayed ? used : skipped;
+        list += (list.empty() ? "" : ", ") + c.instance + " (" + c.process + ")";
+      }
+      if (specs.empty())
+        throw std::invalid_argument(o.input_log + ": no CONFIG snapshot of a replayable process (" +
+                                    (configs.empty() ? std::string("no CONFIG at all") : "only " + skipped) +
+                                    "): give the nodes with --node (see --list-nodes)");
+      out << "nodes from the log's CONFIG snapshots: " << used << "\n";
+      if (!skipped.empty()) out << "  not replayable (devices, tools): " << skipped << "\n";
+      // Live, each process saw only what was published after it started (its
+      // CONFIG); the recording began earlier. Replay from the moment the last
+      // of them was up, so every node sees what its live twin saw, and
+      // compare from there.
+      rt::Micros start = 0;
+      for (const auto& c : configs)
+        if (std::any_of(specs.begin(), specs.end(), [&](const NodeSpec& s) { return s.label == c.instance; }))
+          start = std::max<rt::Micros>(start, c.log_time);
+      std::vector<rt::LogRecord> from_start;
+      std::size_t before = 0;
+      for (auto& r : rt::read_log(o.input_log)) {
+        if (r.timestamp >= start)
+          from_start.push_back(std::move(r));
+        else
+          ++before;
+      }
+      input_log = o.output_log + ".input";
+      rt::write_log(input_log, from_start);
+      out << "  replayed from the last replayed process's start (CONFIG at log time " << start << "): " << before
+          << " earlier events left out\n";
+      // header.seq counts a process's messages since it started, before that moment too.
+      compare_options.add_ignore("*.header.seq");
+      compare_options.add_ignore("*.header.source_seq");
+      out << "  header.seq and header.source_seq not compared (each process counts its messages from its own start, before the replay's)\n";
     }
+    for (const auto& n : o.nodes) specs.push_back(parse_node_spec(n));
+    for (const auto& s : specs) ++per_process[s.process];
     std::set<std::string> labels;
     for (auto& s : specs) {
       if (s.label.empty()) {
@@ -113,7 +193,10 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       std::vector<std::unique_ptr<BuiltNode>> nodes;
       for (const auto& s : specs) {
         const auto ov = overrides.count(s.label) ? overrides.at(s.label) : std::vector<std::string>{};
-        auto b = std::make_unique<BuiltNode>(BuiltNode{s, rt::load_config(s.config, ov), {}});
+        config::Document doc = s.yaml.empty() ? rt::load_config(s.config, {})
+                                              : config::Document::load_string(s.yaml, s.config);
+        for (const auto& a : ov) doc.apply_override(a);
+        auto b = std::make_unique<BuiltNode>(BuiltNode{s, std::move(doc), {}});
         rt::ProcessEnv env{s.process, s.label, "", prefix};
         const auto& reg = node_registry();
         auto it = std::find_if(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == s.process; });
@@ -148,13 +231,13 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   std::set<std::string> regenerated;
   std::string inputs_only;  // --rebase: the input without the regenerated channels
   try {
-    result = replay_once(o.input_log, regenerated);
+    result = replay_once(input_log, regenerated);
     if (o.rebase) {
       // Replay again over the input without the regenerated channels, so a
       // replay of the rebased log starts at the same first event (timer
       // phases) and sees exactly the same inputs.
       std::vector<rt::LogRecord> filtered;
-      for (auto& r : rt::read_log(o.input_log))
+      for (auto& r : rt::read_log(input_log))
         if (!regenerated.count(r.channel)) filtered.push_back(std::move(r));
       inputs_only = o.output_log + ".inputs";
       rt::write_log(inputs_only, filtered);
@@ -184,10 +267,10 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   int rc = 0;
   try {
     if (o.compare) {
-      const auto recorded = rt::read_log(o.input_log);
+      const auto recorded = rt::read_log(input_log);
       const auto replayed = rt::read_log(o.output_log);
-      const auto report = compare_logs(recorded, replayed, sorted_channels(regenerated), o.compare_options);
-      out << format_report(report, o.compare_options);
+      const auto report = compare_logs(recorded, replayed, sorted_channels(regenerated), compare_options);
+      out << format_report(report, compare_options);
       if (!report.ok) rc = 1;
     }
     if (o.rebase) {
@@ -212,6 +295,7 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
     err << "harvest-replay: " << e.what() << "\n";
     return 3;
   }
+  if (input_log != o.input_log) std::filesystem::remove(input_log);
   return rc;
 }
 
@@ -220,8 +304,11 @@ int replay_main(int argc, char** argv) {
   ReplayToolOptions o;
   std::vector<std::string> tolerances, ignores;
   bool list = false;
+  std::string temporary_out;  // no --out with the log's own nodes: a file removed afterwards
   app.add_option("log", o.input_log, "input LCM log");
-  app.add_option("--node", o.nodes, "[LABEL=]PROCESS[:CONFIG] (repeatable, see --list-nodes)")->allow_extra_args(false);
+  app.add_option("--node", o.nodes,
+                 "[LABEL=]PROCESS[:CONFIG] (repeatable, see --list-nodes); none: the nodes and configurations of "
+                 "the log's CONFIG snapshots, compared")->allow_extra_args(false);
   app.add_option("--set", o.overrides, "[LABEL:]key=value configuration override (repeatable)")
       ->allow_extra_args(false);
   app.add_option("--out", o.output_log, "output log of the regenerated messages");
@@ -242,7 +329,14 @@ int replay_main(int argc, char** argv) {
     app.parse(argc, argv);
     if (!list) {
       if (o.input_log.empty()) throw CLI::RequiredError("log");
-      if (o.output_log.empty()) throw CLI::RequiredError("--out");
+      if (o.nodes.empty()) o.compare = true;  // the log's own nodes: the point is the comparison
+      if (o.output_log.empty()) {
+        if (!o.nodes.empty() || o.rebase) throw CLI::RequiredError("--out");
+        temporary_out = (std::filesystem::temp_directory_path() /
+                         ("harvest-replay-" + std::to_string(::getpid()) + ".lcmlog"))
+                            .string();
+        o.output_log = temporary_out;
+      }
     }
     for (const auto& t : tolerances) o.compare_options.add_tolerance(t);
     for (const auto& i : ignores) o.compare_options.add_ignore(i);
@@ -257,7 +351,9 @@ int replay_main(int argc, char** argv) {
     for (const auto& n : node_registry()) std::cout << n.process << "\t" << n.summary << "\n";
     return 0;
   }
-  return run_replay_tool(o, std::cout, std::cerr);
+  const int rc = run_replay_tool(o, std::cout, std::cerr);
+  if (!temporary_out.empty()) std::filesystem::remove(temporary_out);
+  return rc;
 }
 
 }  // namespace harvest::logtools

@@ -16,6 +16,7 @@
 // 1 differences, 2 bad command line or configuration, 3 replay failed.
 #pragma once
 
+#include <cstdint>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -34,14 +35,25 @@ const std::vector<ReplayableNode>& node_registry();
 
 struct NodeSpec {
   std::string label, process, config;
+  std::string yaml;  // non-empty: the configuration itself (a CONFIG snapshot), `config` only names it
 };
+
+// A process's CONFIG snapshot as recorded in a log (config_snapshot_t).
+struct LoggedConfig {
+  std::string process, instance, config_path, yaml, command_line;
+  int64_t log_time = 0;  // when it was recorded: the process was running and subscribed from then on
+};
+// Every instance's first CONFIG snapshot on PREFIX+CONFIG, in log order.
+std::vector<LoggedConfig> logged_configs(const std::string& log, const std::string& prefix = "");
+// The nodes a log's own snapshots say to replay (replayable processes only).
+std::vector<NodeSpec> nodes_from_configs(const std::vector<LoggedConfig>& configs);
 // Throws std::invalid_argument on an unknown process name.
 NodeSpec parse_node_spec(const std::string& spec);
 
 struct ReplayToolOptions {
   std::string input_log;
   std::string output_log;  // required
-  std::vector<std::string> nodes;
+  std::vector<std::string> nodes;  // empty: the nodes and configurations of the log's CONFIG snapshots
   std::vector<std::string> overrides;  // [LABEL:]key=value
   std::string prefix;
   bool compare = false;

@@ -77,6 +77,30 @@ TEST(ReplayRegression, VisionReferenceLogReplaysAsRecorded) {
   EXPECT_NE(r.output.find("replay matches the recording"), std::string::npos);
 }
 
+// No --node: the nodes and configurations come from the log's own CONFIG
+// snapshots, the replay starts when the last of those processes was up (so
+// the detectors see exactly the frames their live twins saw), and the
+// comparison runs by itself.
+TEST(ReplayRegression, ALogReplaysWithItsOwnConfigSnapshots) {
+  ht::TempDir dir;
+  const auto r = run({ht::bin("harvest-replay"), ht::source_path("logs/exp1-vision.lcmlog")}, dir / "auto.txt");
+  EXPECT_NE(r.output.find("nodes from the log's CONFIG snapshots: "), std::string::npos) << r.output;
+  for (const char* node : {"detector-fixed (fruit-detector)", "detector-hand (fruit-detector)",
+                           "reconstructor (reconstructor)"})
+    EXPECT_NE(r.output.find(node), std::string::npos) << node << "\n" << r.output;
+  EXPECT_NE(r.output.find("not replayable (devices, tools): sim (sim)"), std::string::npos) << r.output;
+  for (const char* ch : {"FRUIT_FIXED", "FRUIT_HAND", "TARGETS"})
+    EXPECT_GT(paired(r.output, "SAME", ch), 0) << ch << "\n" << r.output;
+
+  // A log without snapshots says what to do instead.
+  const auto none = run({ht::bin("harvest-replay"), ht::source_path("logs/exp1-harvest.lcmlog")}, dir / "none.txt");
+  EXPECT_EQ(none.code, 2) << none.output;
+  EXPECT_NE(none.output.find("no CONFIG snapshot of a replayable process (no CONFIG at all): give the nodes with "
+                             "--node"),
+            std::string::npos)
+      << none.output;
+}
+
 TEST(ReplayRegression, HarvestReferenceLogReplaysAsRecordedWithTheServoController) {
   ht::TempDir dir;
   auto r = replay(dir, "logs/exp1-harvest.lcmlog", kHarvestNodes, "out.lcmlog", {"--compare"});
