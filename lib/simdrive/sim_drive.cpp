@@ -154,7 +154,10 @@ void SimDrive::set_state(Cia402State s) {
 }
 
 void SimDrive::handle_frame(const CanFrame& f, Micros now) {
-  if (f.extended || f.remote || f.error || silent_) return;
+  // A drive still initialising hears nothing: it answers no SDO before its boot-up message. (The
+  // sim-drives process drains its socket before its first step; a drive that answered then was
+  // configured by the master and announced a "reboot" right after.)
+  if (f.extended || f.remote || f.error || silent_ || !booted_) return;
   if (f.id == cob::kNmt && f.dlc == 2) {
     if (f.data[1] != 0 && f.data[1] != config_.node_id) return;
     // RPDO deadline monitoring starts again with the first RPDO in the new state.

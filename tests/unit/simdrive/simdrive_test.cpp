@@ -200,6 +200,22 @@ TEST_F(MasterWithDrives, WaitsForADriveThatComesUpLate) {
   EXPECT_FALSE(master_->any_fault());
 }
 
+TEST_F(MasterWithDrives, DrivesIgnoreFramesUntilTheirBootUpMessage) {
+  // The master starts while the drives' process only drains its socket (its first step not yet due).
+  master_->start(now_);
+  for (int i = 0; i < 50; ++i) {
+    now_ += 1000;
+    master_->drain(now_);
+    drives_->drain(now_);
+  }
+  run(0.5);
+  ASSERT_EQ(master_->phase(), MasterPhase::kRunning) << master_->error();
+  EXPECT_FALSE(master_->any_fault()) << master_->error();
+  master_->set_goal(DriveGoal::kEnabled);
+  run(0.1);
+  EXPECT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled));
+}
+
 // ---- Drive-side protection (CiA 301 0x1016, 0x1400:05; CiA 402 0x6007, 0x6085).
 
 TEST_F(MasterWithDrives, ConfiguresEachDrivesOwnProtection) {
