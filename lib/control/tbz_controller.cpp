@@ -33,37 +33,66 @@ double translation_gain_f(double me1, double me2) {
 
 const char* to_string(TbzStatus s) {
   switch (s) {
-    case TbzStatus::kOk: return "ok";
-    case TbzStatus::kTooFewPoints: return "fewer than four point pairs";
-    case TbzStatus::kDegenerate: return "degenerate point configuration";
-    case TbzStatus::kNoValidSolution: return "no physically valid homography decomposition";
-    case TbzStatus::kNonFinite: return "non-finite input";
-    case TbzStatus::kBadIndex: return "translation point index out of range";
+    case TbzStatus::kOk:
+      return "ok";
+    case TbzStatus::kTooFewPoints:
+      return "fewer than four point pairs";
+    case TbzStatus::kDegenerate:
+      return "degenerate point configuration";
+    case TbzStatus::kNoValidSolution:
+      return "no physically valid homography decomposition";
+    case TbzStatus::kNonFinite:
+      return "non-finite input";
+    case TbzStatus::kBadIndex:
+      return "translation point index out of range";
   }
   return "unknown";
 }
 
-TbzParams TbzParams::from_config(const config::Node& node) {
+namespace {
+std::vector<double> row_major_values(const Matrix3d& m) {
+  return {m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)};
+}
+}  // namespace
+
+TbzParams TbzParams::thesis_simulation() {
   TbzParams p;
-  const auto a = node.numbers("A_hat", {120, -4, 122, 0, 121, 123, 0, 0, 1}, 9);
+  p.A_hat << 120, -4, 122, 0, 121, 123, 0, 0, 1;
+  p.R_r_hat << 0.9220, -0.1844, 0.3404, 0.3404, 0.8050, -0.4858, -0.1844, 0.5638, 0.8050;
+  p.R_r_hat = geo::nearest_rotation(p.R_r_hat);
+  p.max_linear_speed = p.max_angular_speed = 0.0;  // the thesis simulation has no output limits
+  return p;
+}
+
+TbzParams TbzParams::from_config(const config::Node& node) {
+  TbzParams d;
+  d.A_hat = thesis_simulation().A_hat;
+  return from_config(node, d);
+}
+
+TbzParams TbzParams::from_config(const config::Node& node, const TbzParams& d) {
+  TbzParams p;
+  const auto a = node.numbers("A_hat", row_major_values(d.A_hat), 9);
   p.A_hat = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data());
   if (std::abs(p.A_hat.determinant()) < 1e-9) node.fail("A_hat", "an invertible 3x3 matrix (row major)");
-  const auto r = node.numbers("R_r_hat", {1, 0, 0, 0, 1, 0, 0, 0, 1}, 9);
+  const auto r = node.numbers("R_r_hat", row_major_values(d.R_r_hat), 9);
   const Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r.data());
   if ((R * R.transpose() - Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0)
     node.fail("R_r_hat", "a rotation matrix (row major, orthonormal to 1e-3)");
   p.R_r_hat = geo::nearest_rotation(R);
-  p.lambda_w = node.get<double>("lambda_w", 2.0, {1e-6, 1e3});
-  p.gain_function = node.choice("lambda_v_mode", "constant", {"constant", "gain_function"}) == "gain_function";
-  p.lambda_v = node.get<double>("lambda_v", 40.0, {1e-6, 1e4});
-  p.kn0 = node.get<double>("kn0", 1.0, {1e-6, 1e4});
-  p.kn1 = node.get<double>("kn1", 0.0, {0.0, 1e4});
-  p.kn2 = node.get<double>("kn2", 0.0, {0.0, 1e4});
-  p.desired_depth_estimate = node.get<double>("desired_depth_estimate_m", 1.0, {1e-3, 100.0});
-  p.translation_point = node.get<int>("translation_point", 0, {0, 1000});
-  p.max_linear_speed = node.get<double>("max_linear_speed", 0.381, {0.0, 100.0});
-  p.max_angular_speed = node.get<double>("max_angular_speed", 1.0, {0.0, 100.0});
-  const auto n = node.numbers("reference_normal", {0, 0, 1}, 3);
+  p.lambda_w = node.get<double>("lambda_w", d.lambda_w, {1e-6, 1e3});
+  p.gain_function = node.choice("lambda_v_mode", d.gain_function ? "gain_function" : "constant",
+                                {"constant", "gain_function"}) == "gain_function";
+  p.lambda_v = node.get<double>("lambda_v", d.lambda_v, {1e-6, 1e4});
+  p.kn0 = node.get<double>("kn0", d.kn0, {1e-6, 1e4});
+  p.kn1 = node.get<double>("kn1", d.kn1, {0.0, 1e4});
+  p.kn2 = node.get<double>("kn2", d.kn2, {0.0, 1e4});
+  p.desired_depth_estimate = node.get<double>("desired_depth_estimate_m", d.desired_depth_estimate, {1e-3, 100.0});
+  p.translation_point = node.get<int>("translation_point", d.translation_point, {0, 1000});
+  p.max_linear_speed = node.get<double>("max_linear_speed", d.max_linear_speed, {0.0, 100.0});
+  p.max_angular_speed = node.get<double>("max_angular_speed", d.max_angular_speed, {0.0, 100.0});
+  const auto n =
+      node.numbers("reference_normal", {d.reference_normal.x(), d.reference_normal.y(), d.reference_normal.z()}, 3);
   p.reference_normal = Vector3d(n[0], n[1], n[2]);
   if (p.reference_normal.norm() < 1e-9) node.fail("reference_normal", "a non-zero 3-vector");
   p.reference_normal.normalize();
@@ -82,10 +111,14 @@ TbzOutput TbzController::fail(TbzStatus s, std::string message) const {
 namespace {
 TbzStatus from_geometry(geo::Status s) {
   switch (s) {
-    case geo::Status::kTooFewPoints: return TbzStatus::kTooFewPoints;
-    case geo::Status::kNonFinite: return TbzStatus::kNonFinite;
-    case geo::Status::kNoValidSolution: return TbzStatus::kNoValidSolution;
-    default: return TbzStatus::kDegenerate;
+    case geo::Status::kTooFewPoints:
+      return TbzStatus::kTooFewPoints;
+    case geo::Status::kNonFinite:
+      return TbzStatus::kNonFinite;
+    case geo::Status::kNoValidSolution:
+      return TbzStatus::kNoValidSolution;
+    default:
+      return TbzStatus::kDegenerate;
   }
 }
 
@@ -106,7 +139,8 @@ TbzOutput TbzController::step(const TbzMeasurement& m) {
   if (k >= m.current_px.size()) return fail(TbzStatus::kBadIndex, "translation_point out of range");
 
   const auto fit = geo::fit_homography(m.desired_px, m.current_px);
-  if (!fit.ok()) return fail(from_geometry(fit.status), std::string("target homography: ") + geo::to_string(fit.status));
+  if (!fit.ok())
+    return fail(from_geometry(fit.status), std::string("target homography: ") + geo::to_string(fit.status));
   const geo::Points3 md = geo::normalise(P.A_hat, m.desired_px);  // eq. 5-15
   const geo::Points3 mc = geo::normalise(P.A_hat, m.current_px);  // eq. 5-13
 

@@ -50,8 +50,8 @@ struct TbzParams {
   Eigen::Matrix3d A_hat = Eigen::Matrix3d::Identity();    // best-guess in-hand intrinsics (eq. 5-13, 5-15)
   Eigen::Matrix3d R_r_hat = Eigen::Matrix3d::Identity();  // best-guess camera <- end-effector rotation
   double lambda_w = 2.0;                                  // rotation gain (eq. 5-44)
-  bool gain_function = false;  // false: constant lambda_v (thesis simulation); true: eq. 5-63
-  double lambda_v = 40.0;      // constant translation gain
+  bool gain_function = false;              // false: constant lambda_v (thesis simulation); true: eq. 5-63
+  double lambda_v = 40.0;                  // constant translation gain
   double kn0 = 1.0, kn1 = 0.0, kn2 = 0.0;  // eq. 5-62, 5-63
   double desired_depth_estimate = 1.0;     // Z*_1 hat [m], best guess of point 1's depth at F_d
   int translation_point = 0;               // which target point drives e_v (the thesis's O_1)
@@ -63,8 +63,12 @@ struct TbzParams {
   // first frame; later frames use the previous frame's normal.
   Eigen::Vector3d reference_normal = Eigen::Vector3d::UnitZ();
 
-  // Reads the `controller` block of config/tbz/*.yaml (see docs/teach-by-zooming.md).
-  static TbzParams from_config(const config::Node& node);
+  // Section 5.6.2's controller: the thesis's estimates A_hat and R_r_hat, no output limits.
+  static TbzParams thesis_simulation();
+  // Reads the `controller` block of config/tbz/*.yaml (see docs/teach-by-zooming.md); a missing key
+  // keeps its value in `defaults`.
+  static TbzParams from_config(const config::Node& node, const TbzParams& defaults);
+  static TbzParams from_config(const config::Node& node);  // defaults: A_hat as the thesis's, others above
 };
 
 struct TbzMeasurement {
@@ -82,15 +86,15 @@ const char* to_string(TbzStatus s);
 
 struct TbzOutput {
   TbzStatus status = TbzStatus::kDegenerate;
-  std::string message;     // why, when status != kOk (the twist is then zero)
-  Twist robot;             // commanded end-effector twist (end-effector frame)
-  Twist camera_estimate;   // the same twist seen from the camera with R_r_hat, t_r = 0
+  std::string message;                            // why, when status != kOk (the twist is then zero)
+  Twist robot;                                    // commanded end-effector twist (end-effector frame)
+  Twist camera_estimate;                          // the same twist seen from the camera with R_r_hat, t_r = 0
   Eigen::Vector3d e_w = Eigen::Vector3d::Zero();  // estimated rotation error u^ theta (eq. 5-40)
   Eigen::Vector3d e_v = Eigen::Vector3d::Zero();  // estimated translation error (eq. 5-55)
   double theta = 0.0;
-  double alpha1 = 1.0;     // depth ratio Z*_1 / Z_1 of the translation point
-  double depth1 = 0.0;     // Z_1 hat (eq. 5-61) [m]
-  double lambda_v = 0.0;   // effective translation gain this step
+  double alpha1 = 1.0;    // depth ratio Z*_1 / Z_1 of the translation point
+  double depth1 = 0.0;    // Z_1 hat (eq. 5-61) [m]
+  double lambda_v = 0.0;  // effective translation gain this step
   bool saturated = false;
   bool from_vanishing_points = false;
   bool ok() const { return status == TbzStatus::kOk; }

@@ -151,7 +151,7 @@ ThesisScenario ThesisScenario::from_config(const config::Node& node) {
   s.vanish_star = pairs(node.numbers("vanishing_star", flat(s.vanish_star), 8));
   s.vanish0 = pairs(node.numbers("vanishing_initial", flat(s.vanish0), 8));
   s.desired_depth = node.get<double>("desired_depth_m", 1.0, {1e-3, 100.0});
-  s.vanishing_weight = node.get<double>("vanishing_weight", 1.0, {1e-6, 1e6});
+  s.vanishing_weight = node.get<double>("vanishing_weight", s.vanishing_weight, {1e-6, 1e6});
   s.max_plane_tilt = node.get<double>("max_plane_tilt_deg", 60.0, {0.0, 89.0}) * M_PI / 180.0;
   return s;
 }

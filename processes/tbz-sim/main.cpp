@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
     auto doc = harvest::rt::load_config(config_file, overrides);
     const auto root = doc.root();
     const auto scenario = ctl::ThesisScenario::from_config(root.child("scenario"));
-    const auto params = ctl::TbzParams::from_config(root.child("controller"));
+    const auto params = ctl::TbzParams::from_config(root.child("controller"), ctl::TbzParams::thesis_simulation());
     const auto sim = root.child("simulation");
     ctl::SimOptions opt;
     opt.duration = sim.get<double>("duration_s", 10.0, {1e-3, 1e4});
@@ -53,8 +53,8 @@ int main(int argc, char** argv) {
       std::filesystem::create_directories(plots_dir);
       // The Debian interpreter has python3-matplotlib; HARVEST_PYTHON overrides it.
       const char* py = std::getenv("HARVEST_PYTHON");
-      const std::string cmd = std::string(py ? py : "/usr/bin/python3") + " '" HARVEST_TOOLS_DIR "/plot_tbz.py' --csv '" +
-                              out_dir + "' --out '" + plots_dir + "'";
+      const std::string cmd = std::string(py ? py : "/usr/bin/python3") +
+                              " '" HARVEST_TOOLS_DIR "/plot_tbz.py' --csv '" + out_dir + "' --out '" + plots_dir + "'";
       if (std::system(cmd.c_str()) != 0) {
         std::cerr << "error: plotting failed: " << cmd << '\n';
         std::cout << result.summary.json() << std::endl;

@@ -95,3 +95,23 @@ TEST(TbzSimulation, LogLinearFitOfAnExponential) {
   EXPECT_NEAR(f.slope, -1.5, 1e-9);
   EXPECT_NEAR(f.r2, 1.0, 1e-9);
 }
+
+// harvest-tbz-sim without --config: the thesis numbers, as in config/tbz/thesis_sim.yaml (it once fell back to
+// a vanishing-point weight and an R_r estimate of its own, and its scene fit failed).
+TEST(TbzSimulation, DefaultsAreTheShippedThesisFile) {
+  const auto file = load();
+  auto empty = harvest::config::Document::load_string("{}", "<defaults>");
+  const auto scenario = c::ThesisScenario::from_config(empty.root().child("scenario"));
+  const auto params = c::TbzParams::from_config(empty.root().child("controller"), c::TbzParams::thesis_simulation());
+  EXPECT_DOUBLE_EQ(scenario.vanishing_weight, file.scenario.vanishing_weight);
+  EXPECT_LT((scenario.A - file.scenario.A).norm(), 1e-12);
+  EXPECT_LT((scenario.R_r - file.scenario.R_r).norm(), 1e-12);
+  EXPECT_LT((params.A_hat - file.params.A_hat).norm(), 1e-12);
+  EXPECT_LT((params.R_r_hat - file.params.R_r_hat).norm(), 1e-12);
+  EXPECT_EQ(params.max_linear_speed, file.params.max_linear_speed);
+  EXPECT_EQ(params.max_angular_speed, file.params.max_angular_speed);
+  EXPECT_EQ(params.lambda_v, file.params.lambda_v);
+  EXPECT_EQ(params.gain_function, file.params.gain_function);
+  const auto scene = c::fit_scene(scenario);
+  EXPECT_LT(scene.rms_point_px, 0.5);
+}
