@@ -1,17 +1,19 @@
 #include "logtools/replay_tool.hpp"
 
-#include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <functional>
+#include <harvest/config_snapshot_t.hpp>
 #include <iostream>
 #include <map>
 #include <set>
 #include <stdexcept>
-
-#include <harvest/config_snapshot_t.hpp>
 
 #include "config/config.hpp"
 #include "runtime/channels.hpp"
@@ -81,8 +83,7 @@ std::vector<NodeSpec> nodes_from_configs(const std::vector<LoggedConfig>& config
   std::vector<NodeSpec> out;
   const auto& reg = node_registry();
   for (const auto& c : configs) {
-    if (std::none_of(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == c.process; }))
-      continue;
+    if (std::none_of(reg.begin(), reg.end(), [&](const ReplayableNode& n) { return n.process == c.process; })) continue;
     NodeSpec s;
     s.label = c.instance.empty() ? c.process : c.instance;
     s.process = c.process;
@@ -96,6 +97,11 @@ std::vector<NodeSpec> nodes_from_configs(const std::vector<LoggedConfig>& config
 }
 
 namespace {
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
 
 struct BuiltNode {
   NodeSpec spec;
@@ -156,7 +162,8 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       // header.seq counts a process's messages since it started, before that moment too.
       compare_options.add_ignore("*.header.seq");
       compare_options.add_ignore("*.header.source_seq");
-      out << "  header.seq and header.source_seq not compared (each process counts its messages from its own start, before the replay's)\n";
+      out << "  header.seq and header.source_seq not compared (each process counts its messages from its own start, "
+             "before the replay's)\n";
     }
     for (const auto& n : o.nodes) specs.push_back(parse_node_spec(n));
     for (const auto& s : specs) ++per_process[s.process];
@@ -193,8 +200,8 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       std::vector<std::unique_ptr<BuiltNode>> nodes;
       for (const auto& s : specs) {
         const auto ov = overrides.count(s.label) ? overrides.at(s.label) : std::vector<std::string>{};
-        config::Document doc = s.yaml.empty() ? rt::load_config(s.config, {})
-                                              : config::Document::load_string(s.yaml, s.config);
+        config::Document doc =
+            s.yaml.empty() ? rt::load_config(s.config, {}) : config::Document::load_string(s.yaml, s.config);
         for (const auto& a : ov) doc.apply_override(a);
         auto b = std::make_unique<BuiltNode>(BuiltNode{s, std::move(doc), {}});
         rt::ProcessEnv env{s.process, s.label, "", prefix};
@@ -213,6 +220,9 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   }
 
   // ---- replay ----
+  struct {
+    double wall_s = 0, cpu_s = 0;
+  } speed;
   auto replay_once = [&](const std::string& input, std::set<std::string>& regenerated) {
     rt::ReplayOptions ro;
     ro.input_log = input;
@@ -222,7 +232,12 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
     rt::ReplayRunner runner(ro);
     for (auto& b : built)
       for (auto& n : b->nodes) runner.add(*n);
+    // The tool's own speed (not the nodes' clock, which is the log's): wall and CPU time of the run.
+    const auto wall0 = std::chrono::steady_clock::now();
+    const std::clock_t cpu0 = std::clock();
     const auto result = runner.run();
+    speed.cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+    speed.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     regenerated.clear();
     for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
     return result;
@@ -253,6 +268,11 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   out << "  events read " << result.events_read << ", delivered " << result.events_delivered
       << ", skipped (regenerated) " << result.events_skipped << ", published " << result.messages_published
       << ", timers fired " << result.timers_fired << "\n";
+  const double span_s = static_cast<double>(result.last_time - result.first_time) * 1e-6;
+  out << "  speed: " << fixed(span_s, 1) << " s of log replayed in " << fixed(speed.wall_s, 2) << " s ("
+      << fixed(speed.cpu_s, 2)
+      << " s CPU): " << (speed.wall_s > 0 ? fixed(span_s / speed.wall_s, 0) + "x real time" : std::string("instant"))
+      << "\n";
   for (const auto& b : built)
     for (const auto& n : b->nodes) {
       const auto& st = n->stats();
@@ -308,7 +328,8 @@ int replay_main(int argc, char** argv) {
   app.add_option("log", o.input_log, "input LCM log");
   app.add_option("--node", o.nodes,
                  "[LABEL=]PROCESS[:CONFIG] (repeatable, see --list-nodes); none: the nodes and configurations of "
-                 "the log's CONFIG snapshots, compared")->allow_extra_args(false);
+                 "the log's CONFIG snapshots, compared")
+      ->allow_extra_args(false);
   app.add_option("--set", o.overrides, "[LABEL:]key=value configuration override (repeatable)")
       ->allow_extra_args(false);
   app.add_option("--out", o.output_log, "output log of the regenerated messages");
@@ -332,9 +353,9 @@ int replay_main(int argc, char** argv) {
       if (o.nodes.empty()) o.compare = true;  // the log's own nodes: the point is the comparison
       if (o.output_log.empty()) {
         if (!o.nodes.empty() || o.rebase) throw CLI::RequiredError("--out");
-        temporary_out = (std::filesystem::temp_directory_path() /
-                         ("harvest-replay-" + std::to_string(::getpid()) + ".lcmlog"))
-                            .string();
+        temporary_out =
+            (std::filesystem::temp_directory_path() / ("harvest-replay-" + std::to_string(::getpid()) + ".lcmlog"))
+                .string();
         o.output_log = temporary_out;
       }
     }

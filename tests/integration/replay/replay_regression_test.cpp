@@ -75,6 +75,8 @@ TEST(ReplayRegression, VisionReferenceLogReplaysAsRecorded) {
   for (const char* ch : {"FRUIT_FIXED", "FRUIT_HAND", "TARGETS"})
     EXPECT_GT(paired(r.output, "SAME", ch), 0) << ch << "\n" << r.output;
   EXPECT_NE(r.output.find("replay matches the recording"), std::string::npos);
+  // The replay reports its speed against real time (issue 17: >= 50x for perception and control).
+  EXPECT_NE(r.output.find("x real time"), std::string::npos) << r.output;
 }
 
 // No --node: the nodes and configurations come from the log's own CONFIG
