@@ -6,12 +6,13 @@
 
 #include "logtools/export.hpp"
 #include "logtools/frames.hpp"
+#include "logtools/latency.hpp"
 #include "logtools/log_info.hpp"
 
 namespace harvest::logtools {
 
 int log_main(int argc, char** argv) {
-  CLI::App app{"Inspect harvest LCM logs: info, export, frames (docs/log-tools.md)"};
+  CLI::App app{"Inspect harvest LCM logs: info, export, frames, latency (docs/log-tools.md)"};
   app.require_subcommand(1);
 
   std::string log_path, channel, format = "csv", out_file, detections, out_dir;
@@ -43,6 +44,9 @@ int log_main(int argc, char** argv) {
   frm->add_option("--every", every, "every n-th frame")->check(CLI::PositiveNumber)->capture_default_str();
   frm->add_option("--max", max_frames, "at most this many frames")->check(CLI::PositiveNumber)->capture_default_str();
 
+  auto* lat = app.add_subcommand("latency", "age, transport and per-hop time of every message, from the headers");
+  lat->add_option("log", log_path, "LCM log file")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -55,6 +59,10 @@ int log_main(int argc, char** argv) {
     if (info->parsed()) {
       info_opt.min_gap_us = static_cast<int64_t>(min_gap_s * 1e6);
       std::cout << format_info(log_path, log_info(log, info_opt));
+      return 0;
+    }
+    if (lat->parsed()) {
+      std::cout << format_latency(log_path, latency(log));
       return 0;
     }
     if (exp->parsed()) {
