@@ -100,6 +100,7 @@ LatencyReport latency(const std::vector<rt::LogRecord>& log) {
       if ((!same_frame || c->frame_id == s.frame_id) && (!input || c->publish > input->publish)) input = c;
     if (!input) {
       ++report.untraced;
+      ++report.untraced_by_channel[s.channel];
       continue;
     }
     hops[input->channel + " -> " + s.channel].push_back(s.publish - input->publish);
@@ -126,7 +127,11 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
   for (const auto& [channel, c] : report.channels) row(channel, c.transport);
   out << "hops (input's publication to the output's, traced by utime and source_seq)\n" << header;
   for (const auto& [name, d] : report.hops) row(name, d);
-  if (report.untraced > 0) out << "  " << report.untraced << " derived messages whose input is not in the log\n";
+  if (report.untraced > 0) {
+    out << "  " << report.untraced << " derived messages whose input is not in the log:";
+    for (const auto& [channel, n] : report.untraced_by_channel) out << " " << channel << " " << n;
+    out << "\n";
+  }
   if (report.unstamped > 0) out << "  " << report.unstamped << " messages without publish_utime left out\n";
   if (report.malformed > 0) out << "  " << report.malformed << " malformed events left out\n";
   return out.str();

@@ -35,8 +35,9 @@ struct LatencyReport {
   std::map<std::string, ChannelLatency> channels;  // channels whose messages carry a header
   std::map<std::string, Distribution> hops;        // "CAMERA_HAND -> FRUIT_HAND": publication to publication
   int64_t untraced = 0;                            // derived messages whose input is not in the log
-  int64_t unstamped = 0;                           // publish_utime 0: not stamped by its publisher
-  int64_t malformed = 0;                           // events that do not decode
+  std::map<std::string, int64_t> untraced_by_channel;
+  int64_t unstamped = 0;  // publish_utime 0: not stamped by its publisher
+  int64_t malformed = 0;  // events that do not decode
 };
 
 LatencyReport latency(const std::vector<rt::LogRecord>& log);

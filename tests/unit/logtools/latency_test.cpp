@@ -109,6 +109,6 @@ TEST(Latency, MissingInputsUnstampedAndMalformedAreCountedNotFatal) {
   EXPECT_EQ(r.malformed, 1);
   EXPECT_EQ(r.channels.count("OPERATOR_COMMAND"), 0u);
   const auto text = lt::format_latency("x.lcmlog", r);
-  EXPECT_NE(text.find("2 derived messages whose input is not in the log"), std::string::npos) << text;
+  EXPECT_NE(text.find("2 derived messages whose input is not in the log: FRUIT_HAND 2"), std::string::npos) << text;
   EXPECT_NE(text.find("CAMERA_FIXED -> FRUIT_FIXED"), std::string::npos) << text;
 }
