@@ -21,6 +21,7 @@
 #include "harvest/sim_truth_t.hpp"
 #include "launch/child.hpp"
 #include "runtime/channels.hpp"
+#include "runtime/checked_subscription.hpp"
 #include "runtime/clock.hpp"
 #include "runtime/log_io.hpp"
 #include "servo/operator_command.hpp"
@@ -59,8 +60,8 @@ std::string utc_stamp() {
 class Monitor {
  public:
   explicit Monitor(Progress& p) : progress_(p) {}
-  void status(const lcm::ReceiveBuffer*, const std::string&, const harvest_status_t* m) { pending_ = *m; }
-  void truth(const lcm::ReceiveBuffer*, const std::string&, const sim_truth_t* m) { progress_.on_truth(*m); }
+  void status(const harvest_status_t& m) { pending_ = m; }
+  void truth(const sim_truth_t& m) { progress_.on_truth(m); }
   std::optional<harvest_status_t> take() {
     auto s = std::move(pending_);
     pending_.reset();
@@ -140,8 +141,10 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
 
   Progress progress(run);
   Monitor monitor(progress);
-  lcm::Subscription* s1 = lcm.subscribe(ch::kHarvestStatus, &Monitor::status, &monitor);
-  lcm::Subscription* s2 = lcm.subscribe(sim::kSimTruthChannel, &Monitor::truth, &monitor);
+  std::optional<rt::CheckedSubscription<harvest_status_t>> s1;
+  std::optional<rt::CheckedSubscription<sim_truth_t>> s2;
+  s1.emplace(lcm, ch::kHarvestStatus, [&](const harvest_status_t& m) { monitor.status(m); });
+  s2.emplace(lcm, sim::kSimTruthChannel, [&](const sim_truth_t& m) { monitor.truth(m); });
 
   const auto t0 = std::chrono::steady_clock::now();
   const double deadline_s = scenario.time_limit_s + o.run_margin_s;
@@ -205,8 +208,8 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
     lines.feed(buf, static_cast<std::size_t>(n), on_line);
   lines.flush(on_line);
   if (child.output_fd >= 0) ::close(child.output_fd);
-  lcm.unsubscribe(s1);
-  lcm.unsubscribe(s2);
+  s1.reset();
+  s2.reset();
   r.launcher_exit = launch::exit_code_of(status);
   r.started = progress.started();
   if (r.problem.empty() && r.launcher_exit != 0 && !stopped_by_us)

@@ -50,7 +50,7 @@ LogInfo log_info(const std::vector<rt::LogRecord>& log, const InfoOptions& optio
     if (t != nullptr) {
       a.types.insert(t->name);
       Fields ignore;
-      if (!t->flatten(r.data.data(), r.data.size(), ignore)) ++a.ci.decode_errors;
+      if (!t->flatten(r.data.data(), r.data.size(), ignore, nullptr)) ++a.ci.decode_errors;
     } else {
       a.types.insert(fp ? "unknown " + hex_fingerprint(*fp) : "unknown (short)");
     }

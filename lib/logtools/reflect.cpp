@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "logtools/reflect_gen.hpp"
+#include "runtime/wire_check.hpp"
 
 namespace harvest::logtools {
 namespace {
@@ -15,9 +16,13 @@ struct Registry {
     TypeInfo t;
     t.name = name;
     t.hash = T::getHash();
-    t.flatten = [](const void* data, std::size_t size, Fields& out) {
+    t.flatten = [](const void* data, std::size_t size, Fields& out, std::string* why) {
       T msg;
-      if (msg.decode(data, 0, static_cast<int>(size)) < 0) return false;
+      std::string error = rt::decode_checked(data, size, msg);
+      if (!error.empty()) {
+        if (why != nullptr) *why = std::move(error);
+        return false;
+      }
       gen::flatten(msg, "", out);
       return true;
     };
@@ -77,8 +82,9 @@ Decoded decode_any(const void* data, std::size_t size) {
     d.error = "unknown type, fingerprint " + hex_fingerprint(*fp);
     return d;
   }
-  if (!t->flatten(data, size, d.fields)) {
-    d.error = "malformed " + t->name + " (" + std::to_string(size) + " bytes)";
+  std::string why;
+  if (!t->flatten(data, size, d.fields, &why)) {
+    d.error = "malformed " + t->name + " (" + std::to_string(size) + " bytes): " + why;
     d.fields = {};
     return d;
   }

@@ -17,7 +17,9 @@ namespace harvest::logtools {
 struct TypeInfo {
   std::string name;  // "harvest.image_t"
   int64_t hash = 0;  // the fingerprint an encoded message starts with
-  bool (*flatten)(const void* data, std::size_t size, Fields& out) = nullptr;
+  // Checked decode (rt::decode_checked) then flatten; false with `why` set
+  // (if not null) when the bytes are malformed.
+  bool (*flatten)(const void* data, std::size_t size, Fields& out, std::string* why) = nullptr;
 };
 
 // Every known type, sorted by name.

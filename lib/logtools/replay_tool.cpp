@@ -69,8 +69,9 @@ std::vector<LoggedConfig> logged_configs(const std::string& log, const std::stri
   const std::string channel = prefix + channels::kConfig;
   for (const auto& r : rt::read_log(log)) {
     if (r.channel != channel) continue;
-    config_snapshot_t m;
-    if (m.decode(r.data.data(), 0, static_cast<int>(r.data.size())) < 0) continue;
+    const auto decoded = rt::decode<config_snapshot_t>(r.data);
+    if (!decoded) continue;
+    const config_snapshot_t& m = *decoded;
     // A restarted process publishes again; its first snapshot is the one the
     // recording started with.
     if (!seen.insert(m.instance).second) continue;

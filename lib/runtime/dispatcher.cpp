@@ -1,5 +1,9 @@
 #include "runtime/dispatcher.hpp"
 
+#include <spdlog/spdlog.h>
+
+#include <exception>
+
 namespace harvest::rt {
 
 void Dispatcher::subscribe_bytes(const std::string& channel, RawHandler handler) {
@@ -28,7 +32,17 @@ void Dispatcher::deliver(const std::string& channel, const void* data, std::size
   // Index loop: a handler may subscribe (and so grow the list) while we run.
   for (std::size_t i = 0; i < it->second.size(); ++i) {
     RawHandler h = it->second[i];
-    h(data, size, info);
+    // Node::subscribe catches and counts its handlers' exceptions; this only
+    // keeps a raw handler's from taking the runner down.
+    try {
+      h(data, size, info);
+    } catch (const std::exception& e) {
+      int64_t suppressed = 0;
+      Micros since = 0;
+      if (raw_handler_log_.admit(receive_time, suppressed, since))
+        spdlog::error("handling a message on {} failed: {} ({} more since the last report)", channel, e.what(),
+                      suppressed);
+    }
   }
 }
 

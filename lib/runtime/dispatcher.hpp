@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "runtime/log_limiter.hpp"
 #include "runtime/node.hpp"
 
 namespace harvest::rt {
@@ -46,6 +47,7 @@ class Dispatcher : public Context {
   std::vector<Node*> nodes_;
   std::map<std::string, std::vector<RawHandler>> handlers_;
   std::set<std::string> advertised_;
+  LogLimiter raw_handler_log_;
 };
 
 }  // namespace harvest::rt

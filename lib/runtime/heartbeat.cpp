@@ -46,11 +46,13 @@ void HeartbeatNode::beat() {
   s.uptime_us = now() - start_;
   Health worst = Health::kOk;
   std::string message;
+  int64_t handler_errors = 0;
   for (const Node* n : watched_) {
     const NodeStats& st = n->stats();
     s.messages_received += st.received;
     s.messages_published += st.published;
     s.decode_errors += st.decode_errors;
+    handler_errors += st.handler_errors;
     for (const auto& [name, value] : st.counters) {
       s.counter_names.push_back(watched_.size() > 1 ? n->name() + "." + name : name);
       s.counter_values.push_back(value);
@@ -74,6 +76,10 @@ void HeartbeatNode::beat() {
   if (s.decode_errors > 0 && worst == Health::kOk) {
     worst = Health::kDegraded;
     message += (message.empty() ? "" : "; ") + std::to_string(s.decode_errors) + " malformed messages dropped";
+  }
+  if (handler_errors > 0 && worst == Health::kOk) {
+    worst = Health::kDegraded;
+    message += (message.empty() ? "" : "; ") + std::to_string(handler_errors) + " messages failed in a handler";
   }
   s.state = static_cast<int8_t>(worst);
   s.message = message;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "runtime/clock.hpp"
+#include "runtime/wire_check.hpp"
 
 namespace harvest::rt {
 
@@ -32,10 +33,11 @@ std::vector<uint8_t> encode(const Msg& m) {
   m.encode(out.data(), 0, static_cast<int>(out.size()));
   return out;
 }
+// Decoding goes through decode_checked: a malformed message is nullopt.
 template <class Msg>
 std::optional<Msg> decode(const std::vector<uint8_t>& bytes) {
   Msg m;
-  if (m.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0) return std::nullopt;
+  if (!decode_checked(bytes.data(), bytes.size(), m).empty()) return std::nullopt;
   return m;
 }
 

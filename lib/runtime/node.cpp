@@ -39,12 +39,24 @@ void Node::set_health(Health h, std::string message) {
   health_message_ = std::move(message);
 }
 
-void Node::on_decode_error(const std::string& channel, const std::string& type, std::size_t size) {
-  // Rate-limit by count: the 1st, 10th, 100th, ... so a flood cannot fill the log.
-  const int64_t n = stats_.decode_errors;
-  if ((n & (n - 1)) == 0 || n % 1000 == 0)
-    spdlog::warn("[{}] dropped malformed message on {} ({} bytes, expected {}); {} so far", name_, channel, size,
-                 type, n);
+void Node::drop_malformed(const std::string& channel, const char* type, std::size_t size, const std::string& why) {
+  ++stats_.decode_errors;
+  const int64_t n = ++stats_.counters["malformed." + channel];
+  int64_t suppressed = 0;
+  Micros since = 0;
+  if (malformed_log_[channel].admit(now(), suppressed, since))
+    spdlog::warn("[{}] dropped malformed {} on {} ({} bytes): {}; {} on this channel so far", name_, type, channel,
+                 size, why, n);
+}
+
+void Node::handler_failed(const std::string& channel, const char* what) {
+  ++stats_.handler_errors;
+  const int64_t n = ++stats_.counters["handler_errors." + channel];
+  int64_t suppressed = 0;
+  Micros since = 0;
+  if (handler_log_[channel].admit(now(), suppressed, since))
+    spdlog::error("[{}] handling a message on {} failed: {}; {} on this channel so far, going on", name_, channel, what,
+                  n);
 }
 
 void Node::publish_encoded(const std::string& channel, const std::vector<uint8_t>& bytes) {

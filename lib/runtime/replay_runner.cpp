@@ -27,7 +27,12 @@ void ReplayRunner::publish_bytes(const std::string& channel, const void* data, s
     ev.channel = full_channel(channel);
     ev.datalen = static_cast<int32_t>(size);
     ev.data = const_cast<void*>(data);
-    if (out_->writeEvent(&ev) != 0) throw std::runtime_error("cannot write " + options_.output_log);
+    // Thrown here it would be caught at the handler boundary and counted like
+    // a node's error; a replay that cannot write its output must stop instead.
+    if (out_->writeEvent(&ev) != 0) {
+      write_failed_ = true;
+      stop_ = true;
+    }
   }
   Pending p{channel, std::vector<uint8_t>(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + size)};
   pending_.push_back(std::move(p));
@@ -98,6 +103,7 @@ ReplayResult ReplayRunner::run() {
   }
   if (!stop_ && options_.tail > 0) fire_until(result_.last_time + options_.tail);
   out_.reset();
+  if (write_failed_) throw std::runtime_error("cannot write " + options_.output_log);
   return result_;
 }
 

@@ -70,6 +70,7 @@ class ReplayRunner final : public Dispatcher {
   std::deque<Pending> pending_;
   ReplayResult result_;
   bool stop_ = false;
+  bool write_failed_ = false;
 };
 
 }  // namespace harvest::rt

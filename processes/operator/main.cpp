@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "runtime/channels.hpp"
+#include "runtime/checked_subscription.hpp"
 #include "servo/operator_command.hpp"
 
 namespace {
@@ -36,8 +37,8 @@ std::string default_source() {
 struct StatusListener {
   std::optional<harvest::harvest_status_t> latest;
   int received = 0;
-  void on_status(const lcm::ReceiveBuffer*, const std::string&, const harvest::harvest_status_t* m) {
-    latest = *m;
+  void on_status(const harvest::harvest_status_t& m) {
+    latest = m;
     ++received;
   }
 };
@@ -74,7 +75,9 @@ int main(int argc, char** argv) {
   }
   // Listen before sending: the controller replies at once.
   StatusListener listener;
-  lcm.subscribe(prefix + harvest::channels::kHarvestStatus, &StatusListener::on_status, &listener);
+  harvest::rt::CheckedSubscription<harvest::harvest_status_t> status_sub(
+      lcm, prefix + harvest::channels::kHarvestStatus,
+      [&](const harvest::harvest_status_t& m) { listener.on_status(m); });
 
   const auto now_us = std::chrono::duration_cast<std::chrono::microseconds>(
                           std::chrono::system_clock::now().time_since_epoch())

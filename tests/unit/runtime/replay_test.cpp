@@ -162,6 +162,66 @@ TEST(Replay, MalformedMessagesAreCountedNotFatal) {
   EXPECT_EQ(on_channel(rt::read_log(dir / "out.log"), "OUT").size(), 11u);
 }
 
+namespace {
+
+// The bytes of an IR_RANGE whose header.frame_id length is 0: the generated
+// decoder throws std::length_error on it (issue 16's one-datagram kill).
+std::vector<uint8_t> zero_frame_id(const ir_range_t& m) {
+  auto b = rt::encode(m);
+  // fingerprint 8, utime 8, seq 8, then frame_id's int32 length and its bytes
+  const std::size_t at = 24;
+  const std::size_t len = m.header.frame_id.size() + 1;
+  b[at] = b[at + 1] = b[at + 2] = b[at + 3] = 0;
+  b.erase(b.begin() + at + 4, b.begin() + static_cast<long>(at + 4 + len));
+  return b;
+}
+
+// Throws out of its handler for one reading, as a node with a bug would.
+class ThrowingNode : public ScaleNode {
+ public:
+  using ScaleNode::ScaleNode;
+
+ protected:
+  int32_t stamp(int32_t raw) override {
+    if (raw == 13) throw std::runtime_error("bug on reading 13");
+    return raw;
+  }
+};
+
+}  // namespace
+
+TEST(Replay, MalformedMessagesAreCountedPerChannelAndNeverDecoded) {
+  TempDir dir;
+  auto in = make_input(10);
+  in.push_back({kT0 + 400'000, "IN", zero_frame_id(ht::make_ir(kT0, 5, 1.f))});
+  in.push_back({kT0 + 400'001, "IN", rt::encode(ht::make_ir(kT0, 77, 1.f))});
+  rt::write_log(dir / "in.log", in);
+  ScaleNode a("IN", "OUT", 1.0, false);
+  replay(dir / "in.log", dir / "out.log", {&a});
+  EXPECT_EQ(a.stats().decode_errors, 1);
+  EXPECT_EQ(a.stats().counters.at("malformed.IN"), 1);
+  EXPECT_EQ(a.received, 11);
+}
+
+TEST(Replay, HandlerExceptionIsCaughtCountedAndTheNodeGoesOn) {
+  TempDir dir;
+  rt::write_log(dir / "in.log", make_input(30));
+  ThrowingNode a("IN", "OUT", 1.0, false);
+  rt::HeartbeatNode hb(rt::ProcessIdentity{"scale", "scale-1", "host", 42, "", "{}", "scale", "v1"}, {&a});
+  replay(dir / "in.log", dir / "out.log", {&hb, &a}, 2 * rt::kSecond);
+  EXPECT_EQ(a.stats().handler_errors, 1);
+  EXPECT_EQ(a.stats().counters.at("handler_errors.IN"), 1);
+  // The 29 other readings were answered; the one that threw was not.
+  EXPECT_EQ(on_channel(rt::read_log(dir / "out.log"), "OUT").size(), 29u);
+  const auto status = on_channel(rt::read_log(dir / "out.log"), "PROCESS_STATUS");
+  const auto last = rt::decode<process_status_t>(status.back().data);
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->state, +process_status_t::STATE_DEGRADED);
+  EXPECT_NE(last->message.find("1 messages failed in a handler"), std::string::npos) << last->message;
+  const auto names = last->counter_names;
+  EXPECT_NE(std::find(names.begin(), names.end(), "handler_errors.IN"), names.end());
+}
+
 TEST(Replay, HeartbeatReportsConfigOnceAndStatusAtOneHertz) {
   TempDir dir;
   rt::write_log(dir / "in.log", make_input());
