@@ -45,6 +45,14 @@ void ServoControllerNode::emit(MachineOutput out) {
   }
   if (out.gripper) publish(channels::kGripperCommand, *out.gripper);
   if (!out.log.empty()) spdlog::warn("[{}] {}", name(), out.log);
+  if (!out.invalid_input.empty()) {
+    count("invalid_input");
+    const int64_t n = stats().counters.at("invalid_input");
+    int64_t suppressed = 0;
+    rt::Micros since = 0;
+    if (invalid_log_.admit(now(), suppressed, since))
+      spdlog::warn("[{}] {}; {} invalid inputs so far", name(), out.invalid_input, n);
+  }
   if (out.status_changed) publish_status();
   if (machine_.state() == State::kFault || machine_.estop())
     set_health(rt::Health::kDegraded, machine_.summary());

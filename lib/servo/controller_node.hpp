@@ -27,6 +27,7 @@ class ServoControllerNode final : public rt::Node {
   ServoConfig cfg_;
   HarvestMachine machine_;
   std::string last_summary_;
+  rt::LogLimiter invalid_log_;  // invalid inputs are logged at most once a second
 };
 
 }  // namespace harvest::servo

@@ -197,6 +197,10 @@ void HarvestMachine::orient(rt::Micros now, MachineOutput& out) {
 
 MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
   MachineOutput out;
+  if (auto why = invalid_targets(msg)) {
+    out.invalid_input = "TARGETS from " + msg.source_camera + " camera refused: " + *why;
+    return out;
+  }
   if (msg.source_camera == "fixed") {
     out.status_changed = !fixed_;
     fixed_ = msg;

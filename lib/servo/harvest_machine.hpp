@@ -55,6 +55,8 @@ struct MachineOutput {
   std::optional<gripper_command_t> gripper;
   bool status_changed = false;
   std::string log;  // a line worth logging (refused command, fault), empty if none
+  // Why an input message was refused as invalid (NaN or infinite numbers), empty if it was not.
+  std::string invalid_input;
 };
 
 class HarvestMachine {

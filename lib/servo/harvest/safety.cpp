@@ -1,5 +1,9 @@
 #include "servo/harvest/safety.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+
 #include "harvest/operator_command_t.hpp"
 
 namespace harvest::servo {
@@ -49,6 +53,23 @@ std::optional<std::string> refusal(int8_t command, const CommandContext& c) {
     default:
       return "unknown command " + std::to_string(command);
   }
+}
+
+std::optional<std::string> invalid_targets(const targets_t& msg) {
+  auto finite = [](const auto& values) {
+    return std::all_of(std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
+  };
+  if (msg.camera_known && !finite(msg.camera_position_base)) return "camera_position_base is not finite";
+  for (std::size_t i = 0; i < msg.targets.size(); ++i) {
+    const target_t& t = msg.targets[i];
+    const std::string which = "target " + std::to_string(i) + " (fruit " + std::to_string(t.fruit_id) + ")";
+    if (!finite(t.position_base)) return which + ": position_base is not finite";
+    if (!finite(t.position_camera)) return which + ": position_camera is not finite";
+    if (!finite(t.covariance_base)) return which + ": covariance_base is not finite";
+    const double scalars[] = {t.depth_m, t.diameter_m, t.u_px, t.v_px, t.diameter_px, t.confidence, t.cost};
+    if (!finite(scalars)) return which + ": depth, diameter, pixel position, confidence or cost is not finite";
+  }
+  return std::nullopt;
 }
 
 }  // namespace harvest::servo

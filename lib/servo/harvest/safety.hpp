@@ -9,6 +9,7 @@
 
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/robot_state_t.hpp"
+#include "harvest/targets_t.hpp"
 #include "servo/harvest/states.hpp"
 
 namespace harvest::servo {
@@ -17,6 +18,11 @@ namespace harvest::servo {
 std::optional<std::string> robot_fault(const robot_state_t& msg);
 // The fault a gripper state reports (fault with its code and text, disconnected), if any.
 std::optional<std::string> gripper_fault(const gripper_state_t& msg);
+
+// Why a TARGETS message is not usable input (a NaN or infinite number where
+// the controller computes with it), if it is not. Such a message is refused
+// whole and counted, never taken for a fruit out of reach.
+std::optional<std::string> invalid_targets(const targets_t& msg);
 
 struct CommandContext {
   State state = State::kIdle;

@@ -2,6 +2,8 @@
 // depths aimed at along their line of sight, attempts and retries, ids the tracker renumbers or passes on.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "closed_loop/loop.hpp"
 
 namespace harvest::servo::testing {
@@ -16,6 +18,33 @@ TEST(ClosedLoop, NoFixedCameraViewEndsTheRunWithoutMotion) {
   EXPECT_NEAR(loop.t(), 0.051 + loop.cfg.timeouts.select, 0.05);  // after the select timeout, not before
   EXPECT_NE(loop.ctrl.machine().summary().find("no view from the fixed camera"), std::string::npos);
   for (const auto& [time, c] : loop.commands()) EXPECT_EQ(c.type, +robot_command_t::TYPE_STOP);
+  EXPECT_TRUE(loop.ctrl.machine().outcomes().empty());
+  expect_motion_stopped(loop);
+}
+
+TEST(ClosedLoop, NonFiniteTargetsAreRefusedAsInvalidInputNotTakenForUnreachableFruit) {
+  // The only fixed-camera view carries a NaN position: refused whole and
+  // counted, so the run ends for want of a view, with no outcome recorded
+  // (taken in, the NaN fruit would end as a silent UNREACHABLE).
+  WorldSpec spec = experiment_one();
+  spec.fixed_camera_silent = true;
+  Loop loop(spec);
+  targets_t view{};
+  view.source_camera = "fixed";
+  view.selected_fruit_id = 9;
+  target_t t{};
+  t.fruit_id = 9;
+  t.position_base[0] = std::numeric_limits<double>::quiet_NaN();
+  t.position_base[1] = 0.8;
+  t.selected = 1;
+  view.targets.push_back(t);
+  view.num_targets = 1;
+  loop.send(0.02, ch::kTargets, view);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 10.0));
+  EXPECT_EQ(loop.ctrl.stats().counters.at("invalid_input"), 1);
+  EXPECT_NE(loop.ctrl.machine().summary().find("no view from the fixed camera"), std::string::npos)
+      << loop.ctrl.machine().summary();
   EXPECT_TRUE(loop.ctrl.machine().outcomes().empty());
   expect_motion_stopped(loop);
 }

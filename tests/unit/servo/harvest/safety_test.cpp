@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "harvest/operator_command_t.hpp"
 
 namespace harvest::servo {
@@ -66,6 +68,38 @@ TEST(Safety, RobotAndGripperFaultsAreNamed) {
   EXPECT_EQ(gripper_fault(g).value_or(""), "gripper disconnected");
   g.connected = true;
   EXPECT_FALSE(gripper_fault(g).has_value());
+}
+
+TEST(Safety, TargetsWithNonFiniteNumbersAreInvalidInput) {
+  targets_t m{};
+  m.source_camera = "fixed";
+  target_t t{};
+  t.fruit_id = 4;
+  t.position_base[1] = 0.8;
+  m.targets = {t, t};
+  m.num_targets = 2;
+  EXPECT_FALSE(invalid_targets(m));
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  auto with = [&](auto set) {
+    targets_t bad = m;
+    set(bad);
+    return invalid_targets(bad).value_or("");
+  };
+  EXPECT_EQ(with([&](targets_t& b) { b.targets[1].position_base[2] = nan; }),
+            "target 1 (fruit 4): position_base is not finite");
+  EXPECT_EQ(with([&](targets_t& b) { b.targets[0].position_camera[0] = -inf; }),
+            "target 0 (fruit 4): position_camera is not finite");
+  EXPECT_EQ(with([&](targets_t& b) { b.targets[0].covariance_base[8] = inf; }),
+            "target 0 (fruit 4): covariance_base is not finite");
+  EXPECT_NE(with([&](targets_t& b) { b.targets[0].depth_m = nan; }), "");
+  EXPECT_NE(with([&](targets_t& b) { b.targets[0].u_px = static_cast<float>(inf); }), "");
+  // The camera position counts only when the message says it is known.
+  EXPECT_EQ(with([&](targets_t& b) { b.camera_position_base[0] = nan; }), "");
+  EXPECT_EQ(with([&](targets_t& b) {
+              b.camera_known = 1;
+              b.camera_position_base[0] = nan;
+            }),
+            "camera_position_base is not finite");
 }
 
 }  // namespace
