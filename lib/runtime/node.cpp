@@ -45,8 +45,8 @@ void Node::drop_malformed(const std::string& channel, const char* type, std::siz
   int64_t suppressed = 0;
   Micros since = 0;
   if (malformed_log_[channel].admit(now(), suppressed, since))
-    spdlog::warn("[{}] dropped malformed {} on {} ({} bytes): {}; {} on this channel so far", name_, type, channel,
-                 size, why, n);
+    spdlog::warn("[{}] dropped malformed message on {} ({} bytes, expected {}): {}; {} on this channel so far", name_,
+                 channel, size, type, why, n);
 }
 
 void Node::handler_failed(const std::string& channel, const char* what) {
