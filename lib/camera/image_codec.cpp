@@ -11,11 +11,58 @@ namespace {
 constexpr int kMaxSide = 16384;
 }
 
-DecodedImage decode_image(const image_t& msg) {
+std::optional<JpegFrameSize> jpeg_frame_size(const uint8_t* d, std::size_t n, std::string& why) {
+  if (n < 4 || d[0] != 0xFF || d[1] != 0xD8) {
+    why = "no start-of-image marker";
+    return std::nullopt;
+  }
+  std::size_t pos = 2;
+  while (pos < n) {
+    if (d[pos] != 0xFF) {
+      why = "no marker at byte " + std::to_string(pos);
+      return std::nullopt;
+    }
+    while (pos < n && d[pos] == 0xFF) ++pos;  // fill bytes
+    if (pos >= n) break;
+    const uint8_t marker = d[pos++];
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // no length field
+    if (marker == 0xD9 || marker == 0xDA) {
+      why = marker == 0xDA ? "scan before any frame header" : "end of image before any frame header";
+      return std::nullopt;
+    }
+    if (pos + 2 > n) break;
+    const std::size_t length = (static_cast<std::size_t>(d[pos]) << 8) | d[pos + 1];
+    if (length < 2 || pos + length > n) {
+      why = "marker segment of " + std::to_string(length) + " bytes at byte " + std::to_string(pos) +
+            " runs past the end";
+      return std::nullopt;
+    }
+    // SOF0..SOF15 except DHT (C4), JPG (C8) and DAC (CC): precision, height, width.
+    if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) {
+      if (length < 7) {
+        why = "frame header of " + std::to_string(length) + " bytes";
+        return std::nullopt;
+      }
+      JpegFrameSize s;
+      s.height = (d[pos + 3] << 8) | d[pos + 4];
+      s.width = (d[pos + 5] << 8) | d[pos + 6];
+      return s;
+    }
+    pos += length;
+  }
+  why = "stream ends before a frame header";
+  return std::nullopt;
+}
+
+DecodedImage decode_image(const image_t& msg, int64_t max_pixels) {
   DecodedImage out;
   const std::string size_text = std::to_string(msg.width) + "x" + std::to_string(msg.height);
   if (msg.width <= 0 || msg.height <= 0 || msg.width > kMaxSide || msg.height > kMaxSide) {
     out.error = "bad image size " + size_text;
+    return out;
+  }
+  if (static_cast<int64_t>(msg.width) * msg.height > max_pixels) {
+    out.error = "image size " + size_text + " is more than " + std::to_string(max_pixels) + " pixels";
     return out;
   }
   if (msg.size != static_cast<int32_t>(msg.data.size())) {
@@ -63,6 +110,19 @@ DecodedImage decode_image(const image_t& msg) {
       out.error = "truncated JPEG (no end-of-image marker, " + std::to_string(d.size()) + " bytes)";
       return out;
     }
+    // The header's dimensions decide what imdecode allocates: check them
+    // before it runs (a decompression bomb declares more than it says here).
+    std::string why;
+    const auto header = jpeg_frame_size(d.data(), d.size(), why);
+    if (!header) {
+      out.error = "corrupt JPEG (" + why + ", " + std::to_string(d.size()) + " bytes)";
+      return out;
+    }
+    if (header->width != msg.width || header->height != msg.height) {
+      out.error = "JPEG header says " + std::to_string(header->width) + "x" + std::to_string(header->height) +
+                  ", message says " + size_text;
+      return out;
+    }
     cv::Mat decoded;
     try {
       decoded = cv::imdecode(msg.data, cv::IMREAD_COLOR);
@@ -71,11 +131,6 @@ DecodedImage decode_image(const image_t& msg) {
     }
     if (decoded.empty()) {
       out.error = "corrupt JPEG (" + std::to_string(msg.data.size()) + " bytes)";
-      return out;
-    }
-    if (decoded.cols != msg.width || decoded.rows != msg.height) {
-      out.error = "JPEG decodes to " + std::to_string(decoded.cols) + "x" + std::to_string(decoded.rows) +
-                  ", header says " + size_text;
       return out;
     }
     out.bgr = decoded;

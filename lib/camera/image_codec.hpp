@@ -2,7 +2,10 @@
 // gives a clear error text, never a crash or an out-of-bounds read.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "harvest/image_t.hpp"
@@ -15,7 +18,23 @@ struct DecodedImage {
   bool ok() const { return error.empty(); }
 };
 
-DecodedImage decode_image(const image_t& msg);
+// Frames larger than this are refused before any pixel is allocated (a
+// JPEG of a few kB can declare 16384 x 16384: 805 MB decoded).
+inline constexpr int64_t kDefaultMaxPixels = int64_t{1} << 25;  // 33.5 MP, 100 MB as BGR
+
+// max_pixels: the most pixels a frame may have (a detector passes its
+// sensor's). A JPEG's dimensions are read from its frame header (SOFn) and
+// must equal width x height before it is decoded.
+DecodedImage decode_image(const image_t& msg, int64_t max_pixels = kDefaultMaxPixels);
+
+struct JpegFrameSize {
+  int width = 0;
+  int height = 0;
+};
+// The dimensions a JPEG stream's frame header declares, found by walking its
+// marker segments (bounds-checked); nullopt with `why` set if there is no
+// well-formed frame header before the scan.
+std::optional<JpegFrameSize> jpeg_frame_size(const uint8_t* data, std::size_t size, std::string& why);
 
 // Fills encoding, width, height, stride, size and data (header and ROI are
 // the caller's). jpeg_quality 1..100. Throws std::runtime_error if JPEG

@@ -41,7 +41,9 @@ fruit_detections_t detect_image(const image_t& image, const DetectorNodeConfig& 
   out.selected_index = -1;
   out.num_fruits = 0;
 
-  const DecodedImage decoded = decode_image(image);
+  // A frame is never larger than the sensor it comes from: that bounds what a JPEG may decode to.
+  const DecodedImage decoded =
+      decode_image(image, static_cast<int64_t>(config.calibration.width) * config.calibration.height);
   std::string error = decoded.error;
   if (error.empty() && (out.image_width != config.calibration.width || out.image_height != config.calibration.height))
     error = "sensor size " + std::to_string(out.image_width) + "x" + std::to_string(out.image_height) +

@@ -121,8 +121,52 @@ TEST(ImageCodec, MalformedFramesAreErrorsNamingTheProblem) {
   for (std::size_t i = 2; i + 2 < m.data.size(); ++i) m.data[i] = static_cast<uint8_t>(i * 53);
   EXPECT_NE(error_of(m).find("JPEG"), std::string::npos);
   m = jpeg;
-  m.width = 32;  // header disagrees with the stream
-  EXPECT_NE(error_of(m).find("JPEG decodes to 64x48"), std::string::npos);
+  m.width = 32;  // the message disagrees with the stream's frame header
+  EXPECT_EQ(error_of(m), "JPEG header says 64x48, message says 32x48");
+}
+
+// The offset of the first SOF0 marker segment's length field in a JPEG.
+std::size_t sof0(const std::vector<uint8_t>& d) {
+  for (std::size_t i = 2; i + 1 < d.size(); ++i)
+    if (d[i] == 0xFF && d[i + 1] == 0xC0) return i + 2;
+  ADD_FAILURE() << "no SOF0";
+  return 0;
+}
+
+TEST(ImageCodec, JpegDimensionsAreCheckedFromTheHeaderBeforeDecoding) {
+  image_t jpeg{};
+  encode_image(test_image(), true, 90, jpeg);
+  std::string why;
+  const auto size = jpeg_frame_size(jpeg.data.data(), jpeg.data.size(), why);
+  ASSERT_TRUE(size) << why;
+  EXPECT_EQ(size->width, 64);
+  EXPECT_EQ(size->height, 48);
+
+  // A decompression bomb: a 1 kB stream whose header declares 16000 x 16000
+  // (768 MB decoded) is refused before imdecode allocates anything.
+  image_t bomb = jpeg;
+  const std::size_t at = sof0(bomb.data);
+  bomb.data[at + 3] = bomb.data[at + 5] = 16000 >> 8;
+  bomb.data[at + 4] = bomb.data[at + 6] = 16000 & 0xFF;
+  EXPECT_EQ(error_of(bomb), "JPEG header says 16000x16000, message says 64x48");
+  bomb.width = bomb.height = 16000;  // the message agreeing does not help: too many pixels
+  EXPECT_EQ(error_of(bomb), "image size 16000x16000 is more than 33554432 pixels");
+  // A detector passes its sensor's size as the limit.
+  EXPECT_EQ(decode_image(jpeg, 64 * 47).error, "image size 64x48 is more than 3008 pixels");
+  EXPECT_TRUE(decode_image(jpeg, 64 * 48).ok());
+
+  // Frame headers that are not there or do not fit.
+  image_t m = jpeg;
+  m.data[at] = 0xFF;  // SOF0's length now runs past the end
+  EXPECT_NE(error_of(m).find("runs past the end"), std::string::npos) << error_of(m);
+  m = jpeg;
+  m.data[at - 1] = 0xDA;  // a scan where the frame header was
+  EXPECT_NE(error_of(m).find("scan before any frame header"), std::string::npos) << error_of(m);
+  m = jpeg;
+  m.data[at - 2] = 0x00;  // no marker where one must be
+  EXPECT_NE(error_of(m).find("no marker at byte"), std::string::npos) << error_of(m);
+  const uint8_t only_soi[] = {0xFF, 0xD8, 0xFF, 0xE0};
+  EXPECT_FALSE(jpeg_frame_size(only_soi, sizeof only_soi, why));
 }
 
 TEST(ImageCodec, RoiDefaultsToTheWholeImage) {
