@@ -16,6 +16,7 @@
 #include <optional>
 
 #include "demo/progress.hpp"
+#include "demo/run_ports.hpp"
 #include "demo/set_rewrite.hpp"
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/sim_truth_t.hpp"
@@ -113,6 +114,10 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
     std::ofstream f(set_copy);
     f << "# Written by harvest-demo from " << o.set_file.string() << " for " << prefix << "\n" << rewrite_set(rw);
   }
+  // This run's own virtual CAN bus and board port: the set's ${can_bus} and
+  // ${board_port} (config/site/sim.yaml holds the defaults for a set started by hand).
+  const RunPorts ports = pick_run_ports();
+  out << "run " << run << ": virtual CAN bus " << ports.can_bus << ", board port " << ports.board_port << std::endl;
   const std::vector<std::string> argv = {(o.bin_dir / "harvest-launch").string(),
                                          set_copy.string(),
                                          "--exit-with",
@@ -127,7 +132,11 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
                                          "--set",
                                          "recording.folder=" + o.out_dir.string(),
                                          "--set",
-                                         "recording.file_prefix=" + prefix};
+                                         "recording.file_prefix=" + prefix,
+                                         "--set",
+                                         "site.can_bus=" + ports.can_bus,
+                                         "--set",
+                                         "site.board_port=" + std::to_string(ports.board_port)};
   std::ofstream launch_log(o.out_dir / (prefix + "-launch.log"));
   const launch::Spawned child = launch::spawn(argv, {}, o.root);
   launch::LineBuffer lines;
@@ -253,7 +262,6 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
   app.add_option("--out", out, "output folder (default logs/demo/<UTC time>-<scenario>)");
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: a private port on this host, TTL 0)");
   app.add_option("--bin-dir", bin, "where the harvest-* executables are (default: beside harvest-demo)");
-  app.add_flag("--headless", o.headless, "for CI: plain lines only");
   std::vector<std::string> process_sets;
   app.add_option("--process-set", process_sets, "NAME:KEY=VALUE, a configuration override for one process of the set")
       ->check([](const std::string& v) {
@@ -300,7 +308,7 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
   }
   if (o.out_dir.empty()) o.out_dir = o.root / "logs" / "demo" / (utc_stamp() + "-" + scenario.name);
   fs::create_directories(o.out_dir);
-  if (o.lcm_url.empty()) o.lcm_url = "udpm://239.255.76.67:" + std::to_string(7700 + ::getpid() % 200) + "?ttl=0";
+  if (o.lcm_url.empty()) o.lcm_url = pick_run_ports().lcm_url;
   lcm::LCM lcm(o.lcm_url);
   if (!lcm.good()) {
     err << "harvest-demo: cannot open LCM at " << o.lcm_url << " (try `tools/harvest netfix`)\n";

@@ -22,8 +22,7 @@ struct DemoOptions {
   int runs = 1;
   std::filesystem::path out_dir;       // default logs/demo/<UTC time>-<scenario>
   std::filesystem::path summary_path;  // extra copy of summary.json (--summary)
-  std::string lcm_url;                 // default: a private multicast port on this host
-  bool headless = false;               // no terminal control codes; launcher output only to the log
+  std::string lcm_url;                 // default: a multicast port free on this host, TTL 0
   bool plots = true;
   // --process-set NAME:KEY=VALUE: `--set KEY=VALUE` appended to process NAME.
   std::vector<std::pair<std::string, std::string>> process_sets;

@@ -23,6 +23,7 @@ std::string rewrite_set(const SetRewrite& r) {
     root["bin_dir"] = fs::absolute(r.bin_dir).string();
   else if (root["bin_dir"])
     root["bin_dir"] = absolute(root["bin_dir"].as<std::string>());
+  if (root["site"]) root["site"] = absolute(root["site"].as<std::string>());
   if (root["recording"] && root["recording"]["folder"])
     root["recording"]["folder"] = absolute(root["recording"]["folder"].as<std::string>());
   YAML::Node processes = root["processes"];

@@ -1,6 +1,7 @@
 #include "launch/console.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 
 namespace harvest::launch {
@@ -37,6 +38,17 @@ std::string render_table(const std::vector<StatusRow>& rows, std::size_t width) 
   return out;
 }
 
+std::string prefixed_line(const std::string& source, const std::string& text) {
+  // spdlog pattern of every harvest process: "%H:%M:%S.%e %l [%n] %v" (runtime/process_main.cpp).
+  const std::string tag = " [" + source + "] ";
+  const std::size_t level_end = text.find(' ', 13);
+  const bool timed = text.size() > 13 && text[2] == ':' && text[5] == ':' && text[8] == '.' && text[12] == ' ' &&
+                     std::isdigit(static_cast<unsigned char>(text[0]));
+  if (timed && level_end != std::string::npos && text.compare(level_end, tag.size(), tag) == 0)
+    return "[" + source + "] " + text.substr(0, level_end + 1) + text.substr(level_end + tag.size());
+  return "[" + source + "] " + text;
+}
+
 void Console::erase_table() {
   // Cursor up over the old table, then clear to the end of the screen.
   if (live_ && table_lines_ > 0) out_ << "\033[" << table_lines_ << "F\033[J";
@@ -44,7 +56,7 @@ void Console::erase_table() {
 
 void Console::line(const std::string& source, const std::string& text) {
   erase_table();
-  out_ << "[" << source << "] " << text << "\n";
+  out_ << prefixed_line(source, text) << "\n";
   if (live_ && table_lines_ > 0) out_ << table_;
   out_.flush();
 }

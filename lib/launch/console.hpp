@@ -19,6 +19,12 @@ struct StatusRow {
   std::string message;
 };
 
+// A child's output line as the launcher prints it: "[source] text". A harvest
+// process's own log line already names its instance after the time and level
+// ("12:00:00.123 info [sim] started"); that [sim] is dropped, so each line
+// names its process once and always first.
+std::string prefixed_line(const std::string& source, const std::string& text);
+
 // Fixed-width table, header first, one row per process; every row ends with '\n'.
 std::string render_table(const std::vector<StatusRow>& rows, std::size_t width = 120);
 

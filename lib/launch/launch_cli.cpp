@@ -54,7 +54,7 @@ void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
   for (std::size_t i : selected) {
     const ProcessSpec& p = set.processes[i];
     std::cout << "  " << n++ << ". " << p.name << " [group " << p.group << (p.critical ? ", critical" : "")
-              << (p.stop_first ? ", stop first" : "") << "]";
+              << (p.stop_first ? ", stop first" : "") << (p.ends_set ? ", ends the set" : "") << "]";
     if (!p.after.empty()) {
       std::cout << " after";
       for (const auto& d : p.after) std::cout << " " << d;

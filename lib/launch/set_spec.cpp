@@ -141,7 +141,7 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
   std::set<std::string> names;
   for (const config::Node& p : root.children("processes")) {
     check_keys(p, {"name", "command", "args", "env", "cwd", "group", "after", "restart", "critical", "stop_first",
-                   "harvest_options", "heartbeat_timeout_s", "stop_timeout_s", "ready_timeout_s"});
+                   "ends_set", "harvest_options", "heartbeat_timeout_s", "stop_timeout_s", "ready_timeout_s"});
     ProcessSpec ps;
     ps.name = p.required<std::string>("name");
     if (ps.name.empty() || ps.name.find_first_of(" \t/") != std::string::npos)
@@ -160,6 +160,7 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
     ps.restart = parse_restart(p.child("restart"));
     ps.critical = p.get<bool>("critical", false);
     ps.stop_first = p.get<bool>("stop_first", false);
+    ps.ends_set = p.get<bool>("ends_set", false);
     ps.harvest_options = p.get<bool>("harvest_options", true);
     ps.heartbeat_timeout_s = p.get<double>("heartbeat_timeout_s", ps.harvest_options ? 3.0 : 0.0, {0.0, 3600.0});
     ps.stop_timeout_s = p.get<double>("stop_timeout_s", 5.0, {0.0, 600.0});

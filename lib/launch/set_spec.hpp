@@ -36,6 +36,10 @@ struct ProcessSpec {
   RestartPolicy restart;
   bool critical = false;         // giving up on it stops the whole set
   bool stop_first = false;       // stopped before everything else (the arm)
+  // When it exits, whatever the code, the launcher stops the set and exits
+  // with its code (the simulator: its end is the end of the run), as
+  // --exit-with NAME does from the command line.
+  bool ends_set = false;
   bool harvest_options = true;   // append --instance NAME (and --prefix, --lcm-url from the set)
   double heartbeat_timeout_s = 0;  // 0: no heartbeat expected
   double stop_timeout_s = 5;       // SIGTERM -> SIGKILL

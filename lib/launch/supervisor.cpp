@@ -37,6 +37,7 @@ const char* phase_name(Phase p) {
 
 Supervisor::Supervisor(SetSpec set, SupervisorOptions options, Console& console, std::string timestamp)
     : rt::Node("supervisor"), set_(std::move(set)), options_(std::move(options)), console_(console) {
+  log_health_changes(false);  // every problem the health names was said on the console already
   std::map<std::string, std::string> common_env;
   if (!set_.lcm_url.empty()) common_env["LCM_DEFAULT_URL"] = set_.lcm_url;
   if (set_.recording.enabled) {
@@ -169,9 +170,10 @@ void Supervisor::on_exit(Managed& m, int code) {
     return;
   }
   say(m.spec.name + " " + how + " after " + seconds(now() - m.started));
-  if (!options_.exit_with.empty() && m.spec.name == options_.exit_with) {
+  const bool named = !options_.exit_with.empty() && m.spec.name == options_.exit_with;
+  if (named || m.spec.ends_set) {
     m.phase = Phase::kExited;
-    say("stopping the set: " + m.spec.name + " exited (--exit-with)");
+    say("stopping the set: " + m.spec.name + " exited (" + (named ? "--exit-with" : "ends_set") + ")");
     ctx().request_stop(code);
     return;
   }

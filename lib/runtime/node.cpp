@@ -27,16 +27,21 @@ TimerId Node::after(Micros delay, std::function<void()> callback) {
 }
 
 void Node::set_health(Health h, std::string message) {
-  if (h != health_ || message != health_message_) {
+  if (log_health_ && (h != health_ || message != health_message_)) {
     if (h == Health::kError)
-      spdlog::error("[{}] {}", name_, message);
+      spdlog::error("{}{}", log_prefix(), message);
     else if (h == Health::kDegraded)
-      spdlog::warn("[{}] {}", name_, message);
+      spdlog::warn("{}{}", log_prefix(), message);
     else if (!message.empty())
-      spdlog::info("[{}] {}", name_, message);
+      spdlog::info("{}{}", log_prefix(), message);
   }
   health_ = h;
   health_message_ = std::move(message);
+}
+
+std::string Node::log_prefix() const {
+  const spdlog::logger* logger = spdlog::default_logger_raw();
+  return logger != nullptr && logger->name() == name_ ? std::string() : "[" + name_ + "] ";
 }
 
 void Node::drop_malformed(const std::string& channel, const char* type, std::size_t size, const std::string& why) {
@@ -45,8 +50,8 @@ void Node::drop_malformed(const std::string& channel, const char* type, std::siz
   int64_t suppressed = 0;
   Micros since = 0;
   if (malformed_log_[channel].admit(now(), suppressed, since))
-    spdlog::warn("[{}] dropped malformed message on {} ({} bytes, expected {}): {}; {} on this channel so far", name_,
-                 channel, size, type, why, n);
+    spdlog::warn("{}dropped malformed message on {} ({} bytes, expected {}): {}; {} on this channel so far",
+                 log_prefix(), channel, size, type, why, n);
 }
 
 void Node::handler_failed(const std::string& channel, const char* what) {
@@ -55,8 +60,8 @@ void Node::handler_failed(const std::string& channel, const char* what) {
   int64_t suppressed = 0;
   Micros since = 0;
   if (handler_log_[channel].admit(now(), suppressed, since))
-    spdlog::error("[{}] handling a message on {} failed: {}; {} on this channel so far, going on", name_, channel, what,
-                  n);
+    spdlog::error("{}handling a message on {} failed: {}; {} on this channel so far, going on", log_prefix(), channel,
+                  what, n);
 }
 
 void Node::publish_encoded(const std::string& channel, const std::vector<uint8_t>& bytes) {

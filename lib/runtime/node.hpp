@@ -132,6 +132,12 @@ class Node {
   void cancel(TimerId id) { ctx().cancel_timer(id); }
 
   void set_health(Health h, std::string message = {});
+  // Off for a node that already logs what its health says (the launcher's
+  // console, the controller's status line), so each event is logged once.
+  void log_health_changes(bool on) { log_health_ = on; }
+  // "[name] ", or "" when the process's logger already carries the node's
+  // name (a node named after its instance), so a line names it once.
+  std::string log_prefix() const;
   void count(const std::string& counter, int64_t n = 1) { stats_.counters[counter] += n; }
 
   Context& ctx() const;
@@ -147,6 +153,7 @@ class Node {
   NodeStats stats_;
   Health health_ = Health::kOk;  // nodes with a start-up phase set kStarting themselves
   std::string health_message_;
+  bool log_health_ = true;
   std::map<std::string, int64_t> next_seq_;
   std::map<std::string, LogLimiter> malformed_log_, handler_log_;  // per channel
 };

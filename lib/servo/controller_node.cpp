@@ -8,7 +8,9 @@
 namespace harvest::servo {
 
 ServoControllerNode::ServoControllerNode(ServoConfig config, std::string name)
-    : rt::Node(std::move(name)), cfg_(config), machine_(config, make_approach(config)) {}
+    : rt::Node(std::move(name)), cfg_(config), machine_(config, make_approach(config)) {
+  log_health_changes(false);  // the health carries the status summary, which publish_status() logs
+}
 
 void ServoControllerNode::on_attach() {
   namespace ch = channels;
@@ -32,7 +34,7 @@ void ServoControllerNode::on_attach() {
     subscribe<feature_matches_t>(ch::kFeatureMatches, [tbz](const feature_matches_t& m) { tbz->on_matches(m); });
   every(rt::from_seconds(cfg_.tick_period_s), [this] { emit(machine_.tick(now())); });
   every(rt::from_seconds(cfg_.status_period_s), [this] { publish_status(); });
-  spdlog::info("[{}] approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", name(), cfg_.approach_mode,
+  spdlog::info("{}approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", log_prefix(), cfg_.approach_mode,
                cfg_.max_linear_speed, cfg_.ir_switch_distance * 1000.0);
   publish_status();
 }
@@ -44,14 +46,14 @@ void ServoControllerNode::emit(MachineOutput out) {
     count(out.robot->type == robot_command_t::TYPE_STOP ? "stop_commands" : "motion_commands");
   }
   if (out.gripper) publish(channels::kGripperCommand, *out.gripper);
-  if (!out.log.empty()) spdlog::warn("[{}] {}", name(), out.log);
+  if (!out.log.empty()) spdlog::warn("{}{}", log_prefix(), out.log);
   if (!out.invalid_input.empty()) {
     count("invalid_input");
     const int64_t n = stats().counters.at("invalid_input");
     int64_t suppressed = 0;
     rt::Micros since = 0;
     if (invalid_log_.admit(now(), suppressed, since))
-      spdlog::warn("[{}] {}; {} invalid inputs so far", name(), out.invalid_input, n);
+      spdlog::warn("{}{}; {} invalid inputs so far", log_prefix(), out.invalid_input, n);
   }
   if (out.status_changed) publish_status();
   if (machine_.state() == State::kFault || machine_.estop())
@@ -63,7 +65,7 @@ void ServoControllerNode::emit(MachineOutput out) {
 void ServoControllerNode::publish_status() {
   harvest_status_t s = machine_.status();
   if (s.summary != last_summary_) {
-    spdlog::info("[{}] {}", name(), s.summary);
+    spdlog::info("{}{}", log_prefix(), s.summary);
     last_summary_ = s.summary;
   }
   publish(channels::kHarvestStatus, s);

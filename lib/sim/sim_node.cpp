@@ -2,16 +2,21 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cerrno>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 
 #include "camera/image_codec.hpp"
+#include "can/bus_spec.hpp"
+#include "endeffector/transport.hpp"
 #include "geometry/transform_file.hpp"
 #include "harvest/gripper_command_t.hpp"
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
+#include "sim/ports.hpp"
 
 namespace harvest::sim {
 namespace {
@@ -149,6 +154,14 @@ void SimNode::on_attach() {
 
 void SimNode::attach_devices() {
   const DevicesConfig& d = *config_.devices;
+  // The simulated drives are the first on their bus: anyone already there is
+  // another run (a second demo or set), whose frames would cross ours.
+  const can::BusSpec spec = can::parse_bus_spec(d.bus);
+  if (spec.kind == can::BusSpec::Kind::kUdpMulticast && !port_free(spec.udp.port, true))
+    throw std::runtime_error("virtual CAN bus " + spec.describe() + ": UDP port " + std::to_string(spec.udp.port) +
+                             " is already in use on this machine (another simulator running?); give this one its "
+                             "own: devices.bus, or harvest-launch --set site.can_bus=udp_multicast:GROUP:PORT?ttl=0 "
+                             "(harvest-demo picks free ones)");
   bus_ = can::open_bus(d.bus);  // throws CanError with the reason
   device_arm_ = std::make_unique<DeviceArm>(*bus_, d.model, d.drives, device_arm_start_,
                                             to_isometry(scenario_.arm.mounting), scenario_.arm.hand_eye);
@@ -162,7 +175,15 @@ void SimNode::attach_devices() {
   board_->set_gripper(std::make_unique<BoardGripper>(
       gripper_, [this](rt::Micros t) { return rt::to_seconds(t - start_); }, d.board.default_force_n));
   board_->set_ir_source([this](rt::Micros) { return ir_raw(); });
-  board_server_ = std::make_unique<endeffector::BoardServer>(*board_, d.board_host, d.board_port);
+  try {
+    board_server_ = std::make_unique<endeffector::BoardServer>(*board_, d.board_host, d.board_port);
+  } catch (const endeffector::TransportError& e) {
+    if (std::string(e.what()).find(std::strerror(EADDRINUSE)) == std::string::npos) throw;
+    throw std::runtime_error(std::string(e.what()) +
+                             ": another simulator (or ser2net) holds the port; give this one its own: "
+                             "devices.board.port, or harvest-launch --set site.board_port=PORT (harvest-demo picks "
+                             "free ones)");
+  }
   ctx().watch_fd(board_server_->listen_fd(), [this] { board_server_->service(now()); });
   every(d.board_service_us, [this] { board_server_->service(now()); });
 

@@ -1,4 +1,4 @@
-// The README's main command end to end, headless and short: harvest-demo runs
+// The README's main command end to end, short: harvest-demo runs
 // the simulator and the real process set through harvest-launch over real LCM,
 // starts the harvest, and scores the recorded log against the ground truth.
 #include <gtest/gtest.h>
@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -26,9 +27,9 @@ std::string slurp(const fs::path& p) {
 }
 
 int run_demo(const std::vector<std::string>& extra, const fs::path& dir, std::string* output) {
-  std::vector<std::string> argv = {ht::bin("harvest-demo"),        "--headless", "--no-plots",           "--lcm-url",
-                                   ht::unique_lcm_url(),           "--out",      (dir / "out").string(), "--summary",
-                                   (dir / "summary.json").string()};
+  std::vector<std::string> argv = {ht::bin("harvest-demo"), "--no-plots",           "--lcm-url",
+                                   ht::unique_lcm_url(),    "--out",                (dir / "out").string(),
+                                   "--summary",             (dir / "summary.json").string()};
   argv.insert(argv.end(), extra.begin(), extra.end());
   ht::ChildProcess p(argv, dir / "demo.txt");
   const int code = p.wait(std::chrono::seconds(240));
@@ -68,24 +69,18 @@ TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
 
 // The field-faithful set: the simulator plays only the hardware; the robot
 // link drives the arm's CiA 402 drives over the virtual CAN bus and the
-// end-effector bridge talks to the board over TCP. Private bus and port so
-// parallel tests do not meet.
+// end-effector bridge talks to the board over TCP. The demo gives the run its
+// own bus and board port (free at its start), so parallel tests and demos do
+// not meet; the set's defaults (config/site/sim.yaml) are not used.
 TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
   ht::TempDir dir;
-  const int salt = static_cast<int>(::getpid() % 2000);
-  const std::string bus =
-      "udp_multicast:239.74.163." + std::to_string(10 + salt % 200) + ":" + std::to_string(45000 + salt) + "?ttl=0";
-  const std::string port = std::to_string(21000 + salt);
   std::string out;
-  ASSERT_EQ(
-      run_demo({"--set", "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml", "--process-set",
-                "sim:devices.bus=" + bus, "--process-set", "robot-link:bus=" + bus,
-                // A stall of the link on the loaded test machine must not trip the drives' 25 ms deadline.
-                "--process-set", "robot-link:can.drive_rpdo_timeout_ms=200", "--process-set",
-                "robot-link:can.drive_heartbeat_timeout_ms=300", "--process-set",
-                "sim:devices.board.port=" + port, "--process-set", "ee-bridge:link.tcp.port=" + port},
-               dir.path(), &out),
-      0)
+  ASSERT_EQ(run_demo({"--set", "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml",
+                      // A stall of the link on the loaded test machine must not trip the drives' 25 ms deadline.
+                      "--process-set", "robot-link:can.drive_rpdo_timeout_ms=200", "--process-set",
+                      "robot-link:can.drive_heartbeat_timeout_ms=300"},
+                     dir.path(), &out),
+            0)
       << out;
   const std::string summary = slurp(dir / "summary.json");
   EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary << out;
@@ -93,6 +88,16 @@ TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
   const std::string launch_log = slurp(dir / "out" / "run0-launch.log");
   EXPECT_NE(launch_log.find("started robot-link"), std::string::npos) << launch_log;
   EXPECT_NE(launch_log.find("started ee-bridge"), std::string::npos) << launch_log;
+  // On the run's own bus and port, which the simulator, the link and the bridge were all given.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("virtual CAN bus (udp_multicast:\\S+), board port (\\d+)"))) << out;
+  const std::string bus = m[1], port = m[2];
+  EXPECT_NE(bus, "udp_multicast:239.74.163.2:43113?ttl=0");
+  EXPECT_NE(port, "4001");
+  EXPECT_NE(launch_log.find("devices.bus=" + bus), std::string::npos) << launch_log;
+  EXPECT_NE(launch_log.find("robot_link.yaml --set bus=" + bus), std::string::npos) << launch_log;
+  EXPECT_NE(launch_log.find("devices.board.port=" + port), std::string::npos) << launch_log;
+  EXPECT_NE(launch_log.find("link.tcp.port=" + port), std::string::npos) << launch_log;
 }
 
 TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
@@ -113,6 +118,10 @@ TEST(Demo, SetRewriteKeepsTheSetAndTellsTheSimulatorItsRun) {
   EXPECT_NE(text.find("run=3"), std::string::npos) << text;
   EXPECT_NE(text.find("harvest-servo-controller"), std::string::npos) << text;
   EXPECT_NE(text.find("cwd: " + fs::canonical(ht::source_path(".")).string()), std::string::npos) << text;
+  // The copy lives elsewhere: the site file is named absolutely.
+  rw.set_file = ht::source_path("config/sets/sim.yaml");
+  EXPECT_NE(harvest::demo::rewrite_set(rw).find("site: " + fs::canonical(ht::source_path("config/site/sim.yaml")).string()),
+            std::string::npos);
   rw.extra_args["nosuch"] = {"--set", "a=1"};
   EXPECT_THROW(harvest::demo::rewrite_set(rw), std::runtime_error);
 }

@@ -27,6 +27,7 @@
 #include <thread>
 
 #include "runtime/channels.hpp"
+#include "sim/ports.hpp"
 #include "test_support.hpp"
 
 namespace ht = harvest::testing;
@@ -43,23 +44,6 @@ std::string unique_can_bus() {
   const int pid = static_cast<int>(::getpid());
   return "udp_multicast:239.74.164." + std::to_string(10 + pid % 200) + ":" + std::to_string(57000 + (pid * 7) % 4000) +
          "?ttl=0";
-}
-
-// A TCP port nobody listens on right now (the kernel's pick).
-int free_tcp_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = 0;
-  socklen_t len = sizeof a;
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
-    ::close(fd);
-    return 0;
-  }
-  ::close(fd);
-  return ntohs(a.sin_port);
 }
 
 Eigen::Vector3d position(const harvest::pose_t& p) { return {p.position[0], p.position[1], p.position[2]}; }
@@ -92,7 +76,7 @@ class SimDevices : public ::testing::Test {
   void SetUp() override {
     url_ = ht::unique_lcm_url();
     bus_ = unique_can_bus();
-    port_ = free_tcp_port();
+    port_ = harvest::sim::free_port(false);
     ASSERT_GT(port_, 0);
     { std::ofstream(tmp_ / "scenario.yaml") << scenario(); }
     lcm_ = std::make_unique<lcm::LCM>(url_);
@@ -372,6 +356,62 @@ TEST_F(SimDeviceFaults, SilentDriveAndBoardFromTheScenarioAreSeenByRobotLinkAndB
   EXPECT_TRUE(wait_for<ir_range_t>(
       irs_, [](const ir_range_t& m) { return m.validity == ir_range_t::VALID && m.raw > 0; }, 1s));
   EXPECT_NE(sim_->output().find("fault injection: joint 3 drive silent"), std::string::npos) << outputs();
+}
+
+// Two runs on one machine must not share the virtual CAN bus or the board's
+// port (their drives would answer each other's link, their bridges each
+// other's board): a simulator finding either taken refuses to start and says
+// which, and how to give it its own.
+TEST(SimPorts, ABusOrBoardPortAnotherRunHoldsIsRefusedClearly) {
+  ht::TempDir tmp;
+  { std::ofstream(tmp / "scenario.yaml") << kScenario; }
+  const auto start_sim = [&](const std::string& bus, int port, const std::string& out) {
+    ht::ChildProcess sim({ht::bin("harvest-sim"), "--config", ht::source_path("config/sim/sim-devices.yaml"), "--set",
+                          "scenario=" + (tmp / "scenario.yaml").string(), "--set", "devices.bus=" + bus, "--set",
+                          "devices.board.port=" + std::to_string(port), "--lcm-url", ht::unique_lcm_url(),
+                          "--no-netcheck"},
+                         tmp / out);
+    const int code = sim.wait(30s);
+    return std::make_pair(code, sim.output());
+  };
+  // Another run's bus: a socket on its UDP port, bound as the virtual CAN bus binds (SO_REUSEADDR).
+  const int udp = ::socket(AF_INET, SOCK_DGRAM, 0);
+  const int one = 1;
+  ::setsockopt(udp, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_ANY);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::bind(udp, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(::getsockname(udp, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  const int bus_port = ntohs(a.sin_port);
+  EXPECT_FALSE(harvest::sim::port_free(bus_port, true));
+  const std::string bus = "udp_multicast:239.74.164.9:" + std::to_string(bus_port) + "?ttl=0";
+  const auto [bus_code, bus_out] = start_sim(bus, harvest::sim::free_port(false), "bus.log");
+  EXPECT_NE(bus_code, 0) << bus_out;
+  EXPECT_NE(bus_out.find("virtual CAN bus " + bus + ": UDP port " + std::to_string(bus_port) +
+                         " is already in use on this machine"),
+            std::string::npos)
+      << bus_out;
+  ::close(udp);
+  EXPECT_TRUE(harvest::sim::port_free(bus_port, true));
+
+  // Another run's board: a listener on its TCP port.
+  const int tcp = ::socket(AF_INET, SOCK_STREAM, 0);
+  a.sin_port = 0;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  len = sizeof a;
+  ASSERT_EQ(::bind(tcp, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(::listen(tcp, 1), 0);
+  ASSERT_EQ(::getsockname(tcp, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  const int board_port = ntohs(a.sin_port);
+  const auto [board_code, board_out] = start_sim(unique_can_bus(), board_port, "board.log");
+  EXPECT_NE(board_code, 0) << board_out;
+  EXPECT_NE(board_out.find("board server 127.0.0.1:" + std::to_string(board_port) +
+                           ": Address already in use: another simulator (or ser2net) holds the port"),
+            std::string::npos)
+      << board_out;
+  ::close(tcp);
 }
 
 }  // namespace

@@ -86,6 +86,36 @@ TEST(Launch, RestartsACrashingProcessPerPolicyThenStopsTheSetWhenCritical) {
   EXPECT_NE(out.find("restarting crash in 0.1 s (restart 2 of 2)"), std::string::npos) << out;  // back-off doubled
   EXPECT_NE(out.find("critical process crash failed"), std::string::npos) << out;
   EXPECT_NE(out.find("other stopped"), std::string::npos) << out;
+  // Said once, by the console: the supervisor's health (the same news) is not logged again.
+  EXPECT_EQ(count_lines(out, "crash failed"), 1) << out;
+  EXPECT_EQ(out.find("[supervisor]"), std::string::npos) << out;
+}
+
+// A process marked ends_set (the simulator) ends the set when it exits, as
+// --exit-with does for the demo: a set started by hand does not go on without
+// its world. Without the mark the others keep running.
+TEST(Launch, AProcessThatEndsTheSetStopsItWhenItExits) {
+  const std::string sleeper = kFixtures + "/sleeper.sh";
+  const auto set_with = [&](Launch& l, bool ends) {
+    return l.write_set(std::string("processes:\n  - {name: world, command: ") + STANDIN_EXE +
+                       ", args: [--no-netcheck, --set, exit_after_s=1.0, --set, exit_code=0], ends_set: " +
+                       (ends ? "true" : "false") + "}\n  - {name: other, command: " + sleeper +
+                       ", args: [other], harvest_options: false}\n");
+  };
+  Launch ends;
+  auto launch = ends.start(set_with(ends, true));
+  EXPECT_EQ(launch->wait(20s), 0) << launch->output();
+  const std::string out = launch->output();
+  EXPECT_NE(out.find("stopping the set: world exited (ends_set)"), std::string::npos) << out;
+  EXPECT_NE(out.find("other stopped"), std::string::npos) << out;
+
+  Launch goes_on;
+  auto kept = goes_on.start(set_with(goes_on, false));
+  ASSERT_TRUE(eventually([&] { return kept->output().find("world exited with code 0") != std::string::npos; }, 20s))
+      << kept->output();
+  std::this_thread::sleep_for(1s);
+  EXPECT_TRUE(kept->running()) << kept->output();
+  EXPECT_EQ(kept->stop(10s), 0) << kept->output();
 }
 
 TEST(Launch, StopsEverythingOnSigtermArmFirstWithNothingLeftBehind) {
@@ -232,6 +262,12 @@ TEST(Launch, ReportsAProcessWhoseHeartbeatStops) {
       10s))
       << out;
   const pid_t beater = std::stoi(m[1]);
+  // Its log lines name it once, in front (not "[beater] 12:00:00.000 info [beater] started").
+  ASSERT_TRUE(eventually([&] { return launch->output().find(" started (") != std::string::npos; }, 10s))
+      << launch->output();
+  EXPECT_TRUE(std::regex_search(launch->output(), std::regex(R"(\[beater\] \d\d:\d\d:\d\d\.\d{3} info started \()")))
+      << launch->output();
+  EXPECT_EQ(launch->output().find("info [beater]"), std::string::npos) << launch->output();
   ASSERT_TRUE(eventually(
       [&] {
         std::lock_guard<std::mutex> g(mu);

@@ -39,6 +39,7 @@ processes:
     group: robot
     critical: true
     stop_first: true
+    ends_set: true
     heartbeat_timeout_s: 2
     stop_timeout_s: 4
     restart: {policy: always, max_restarts: -1, backoff_s: 0.2, backoff_factor: 3, backoff_max_s: 5}
@@ -58,6 +59,7 @@ recording: {enabled: true, folder: /data, channels: "CAMERA_.*", invert_channels
   EXPECT_EQ(l.group, "robot");
   EXPECT_TRUE(l.critical);
   EXPECT_TRUE(l.stop_first);
+  EXPECT_TRUE(l.ends_set);
   EXPECT_DOUBLE_EQ(l.heartbeat_timeout_s, 2);
   EXPECT_EQ(l.restart.mode, RestartMode::kAlways);
   EXPECT_EQ(l.restart.max_restarts, -1);
@@ -67,6 +69,7 @@ recording: {enabled: true, folder: /data, channels: "CAMERA_.*", invert_channels
   EXPECT_EQ(sv.cwd, "/");  // default: the repository root, two folders above the set
   EXPECT_DOUBLE_EQ(sv.heartbeat_timeout_s, 3);  // harvest processes are expected to beat
   EXPECT_FALSE(sv.critical);
+  EXPECT_FALSE(sv.ends_set);
   EXPECT_TRUE(s.recording.enabled);
   EXPECT_EQ(s.recording.folder, "/data");
   EXPECT_TRUE(s.recording.invert_channels);
