@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -78,20 +79,21 @@ struct RunResult {
   int launcher_exit = -1;
   bool started = false;
   std::string problem;  // why the run did not end normally
-  fs::path log;
+  fs::path log;         // the first part of the recording
+  std::vector<fs::path> parts;
 };
 
-// The recording the launcher made for this run (file_prefix runK).
-std::optional<fs::path> find_log(const fs::path& dir, const std::string& prefix) {
-  std::optional<fs::path> best;
-  if (!fs::exists(dir)) return best;
+// The recording the launcher made for this run (file_prefix runK): its parts
+// in order (runK-TIME.lcm.00, .01, ...; several when split by size).
+std::vector<fs::path> find_log(const fs::path& dir, const std::string& prefix) {
+  std::vector<fs::path> parts;
+  if (!fs::exists(dir)) return parts;
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind(prefix, 0) == 0 && e.path().extension() != ".log" && e.path().extension() != ".yaml" &&
-        (!best || fs::file_size(e.path()) > fs::file_size(*best)))
-      best = e.path();
+    if (name.rfind(prefix + "-", 0) == 0 && name.find(".lcm") != std::string::npos) parts.push_back(e.path());
   }
-  return best;
+  std::sort(parts.begin(), parts.end());
+  return parts;
 }
 
 RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run, lcm::LCM& lcm, std::ostream& out,
@@ -134,6 +136,10 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
                                          "--set",
                                          "recording.file_prefix=" + prefix,
                                          "--set",
+                                         "recording.split_mb=" + std::to_string(o.split_mb),
+                                         "--set",
+                                         "recording.image_rate_hz=" + std::to_string(o.image_rate_hz),
+                                         "--set",
                                          "site.can_bus=" + ports.can_bus,
                                          "--set",
                                          "site.board_port=" + std::to_string(ports.board_port)};
@@ -143,7 +149,8 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
   auto on_line = [&](const std::string& line) {
     launch_log << line << std::endl;  // readable while the run goes on
     // The launcher's own lines (starts, exits, restarts) and every error reach the terminal.
-    if (line.rfind("[launch]", 0) == 0 || line.find(" error ") != std::string::npos ||
+    // So do the recorder's size/rate reports and disk warnings.
+    if (line.rfind("[launch]", 0) == 0 || line.rfind("[recorder]", 0) == 0 || line.find(" error ") != std::string::npos ||
         line.find("critical") != std::string::npos)
       out << "  " << line << std::endl;
   };
@@ -224,8 +231,9 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
   if (r.problem.empty() && r.launcher_exit != 0 && !stopped_by_us)
     r.problem =
         "harvest-launch exited with code " + std::to_string(r.launcher_exit) + " (see " + prefix + "-launch.log)";
-  if (auto log = find_log(o.out_dir, prefix))
-    r.log = *log;
+  r.parts = find_log(o.out_dir, prefix);
+  if (!r.parts.empty())
+    r.log = r.parts.front();
   else if (r.problem.empty())
     r.problem = "no recording of the run found in " + o.out_dir.string();
   return r;
@@ -270,6 +278,12 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
                    ? std::string("expected NAME:KEY=VALUE")
                    : std::string();
       });
+  app.add_option("--split-mb", o.split_mb, "recording: start a new part every N MB (0: one file)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--image-rate", o.image_rate_hz,
+                 "recording: camera frames (CAMERA_.*) at most this many per second (0: every frame); the "
+                 "processes still see every frame")
+      ->check(CLI::NonNegativeNumber);
   bool no_plots = false;
   app.add_flag("--no-plots", no_plots, "skip the plots");
   try {
@@ -333,7 +347,12 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
     if (!r.problem.empty()) code = 1;
     if (!r.log.empty()) {
       try {
-        sim::evaluate_run(rt::read_log(r.log.string()), scenario.for_run(run), run, e);
+        std::vector<rt::LogRecord> records;
+        for (const auto& part : r.parts) {
+          auto more = rt::read_log(part.string());
+          records.insert(records.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
+        }
+        sim::evaluate_run(records, scenario.for_run(run), run, e);
       } catch (const std::exception& ex) {
         r.problem += (r.problem.empty() ? "" : "; ") + std::string("evaluation failed: ") + ex.what();
         code = 1;

@@ -24,6 +24,8 @@ struct DemoOptions {
   std::filesystem::path summary_path;  // extra copy of summary.json (--summary)
   std::string lcm_url;                 // default: a multicast port free on this host, TTL 0
   bool plots = true;
+  double split_mb = 0;       // recording: a new part every N MB (0: one file)
+  double image_rate_hz = 0;  // recording: camera frames at most this often (0: every frame)
   // --process-set NAME:KEY=VALUE: `--set KEY=VALUE` appended to process NAME.
   std::vector<std::pair<std::string, std::string>> process_sets;
   double start_timeout_s = 30.0;  // processes up and START obeyed within this

@@ -170,14 +170,20 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
   if (s.processes.empty()) root.fail("processes", "a non-empty list of processes");
 
   const config::Node rec = root.child("recording");
-  check_keys(rec, {"enabled", "folder", "file_prefix", "channels", "invert_channels", "split_mb", "logger"});
+  check_keys(rec, {"enabled", "folder", "file_prefix", "channels", "invert_channels", "split_mb", "logger",
+                   "image_rate_hz", "image_channels", "status_s", "warn_free_mb", "warn_fill_minutes"});
   s.recording.enabled = rec.get<bool>("enabled", false);
   s.recording.folder = beside(s.file, rec.get<std::string>("folder", "../../logs/runs"));
   s.recording.file_prefix = rec.get<std::string>("file_prefix", s.name);
   s.recording.channels = rec.get<std::string>("channels", ".*");
   s.recording.invert_channels = rec.get<bool>("invert_channels", false);
   s.recording.split_mb = rec.get<double>("split_mb", 0.0, {0.0, 1e6});
-  s.recording.logger = rec.get<std::string>("logger", "lcm-logger");
+  s.recording.logger = rec.get<std::string>("logger", s.recording.logger);
+  s.recording.image_rate_hz = rec.get<double>("image_rate_hz", 0.0, {0.0, 1000.0});
+  s.recording.image_channels = rec.get<std::string>("image_channels", s.recording.image_channels);
+  s.recording.status_s = rec.get<double>("status_s", s.recording.status_s, {0.0, 3600.0});
+  s.recording.warn_free_mb = rec.get<double>("warn_free_mb", s.recording.warn_free_mb, {0.0, 1e9});
+  s.recording.warn_fill_minutes = rec.get<double>("warn_fill_minutes", s.recording.warn_fill_minutes, {0.0, 1e6});
 
   start_order(s);  // throws on unknown dependencies and cycles
   return s;
@@ -228,11 +234,18 @@ std::optional<std::filesystem::path> resolve_executable(const SetSpec& set, cons
     return executable(p) ? std::optional(p) : std::nullopt;
   }
   if (!set.bin_dir.empty() && executable(set.bin_dir / command)) return set.bin_dir / command;
+  std::error_code ec;
+  const auto own = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
+  if (!ec && executable(own / command)) return own / command;
   const char* path = std::getenv("PATH");
   std::stringstream dirs(path ? path : "/usr/bin:/bin");
   for (std::string d; std::getline(dirs, d, ':');)
     if (!d.empty() && executable(std::filesystem::path(d) / command)) return std::filesystem::path(d) / command;
   return std::nullopt;
+}
+
+bool is_harvest_record(const RecordingSpec& r) {
+  return std::filesystem::path(r.logger).filename() == "harvest-record";
 }
 
 std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::size_t>& selected) {
@@ -246,7 +259,13 @@ std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::si
       problems.push_back(p.name + ": working directory " + p.cwd.string() + " does not exist");
   }
   if (set.recording.enabled && !resolve_executable(set, set.recording.logger))
-    problems.push_back("recording: '" + set.recording.logger + "' not found (apt-get install liblcm-bin)");
+    problems.push_back("recording: '" + set.recording.logger + "' not found (" +
+                       (is_harvest_record(set.recording) ? "build it: tools/harvest build"
+                                                         : "apt-get install liblcm-bin") +
+                       ")");
+  if (set.recording.enabled && set.recording.image_rate_hz > 0 && !is_harvest_record(set.recording))
+    problems.push_back("recording: image_rate_hz needs logger harvest-record ('" + set.recording.logger +
+                       "' records every message)");
   return problems;
 }
 
@@ -265,11 +284,21 @@ std::vector<std::string> command_line(const SetSpec& set, const ProcessSpec& p) 
 std::vector<std::string> recorder_command_line(const SetSpec& set, const std::string& timestamp) {
   const RecordingSpec& r = set.recording;
   const auto exe = resolve_executable(set, r.logger);
-  std::vector<std::string> argv{exe ? exe->string() : r.logger, "--quiet", "--channel=" + r.channels};
+  const bool ours = is_harvest_record(r);
+  // The options both loggers take, in lcm-logger's spelling.
+  std::vector<std::string> argv{exe ? exe->string() : r.logger};
+  if (!ours) argv.push_back("--quiet");  // harvest-record's lines are its size/rate reports
+  argv.push_back("--channel=" + r.channels);
   if (r.invert_channels) argv.push_back("--invert-channels");
   if (!set.lcm_url.empty()) argv.push_back("--lcm-url=" + set.lcm_url);
   argv.push_back("-i");  // append .00, .01, ... ; the long form --increment is broken in lcm-logger 1.4
   if (r.split_mb > 0) argv.push_back("--split-mb=" + std::to_string(r.split_mb));
+  if (ours) {
+    if (r.image_rate_hz > 0) argv.push_back("--max-rate=" + r.image_channels + "=" + std::to_string(r.image_rate_hz));
+    argv.push_back("--status-s=" + std::to_string(r.status_s));
+    argv.push_back("--warn-free-mb=" + std::to_string(r.warn_free_mb));
+    argv.push_back("--warn-fill-minutes=" + std::to_string(r.warn_fill_minutes));
+  }
   argv.push_back((r.folder / (r.file_prefix + "-" + timestamp + ".lcm")).string());
   return argv;
 }

@@ -53,7 +53,14 @@ struct RecordingSpec {
   std::string channels = ".*";   // regular expression given to lcm-logger -c
   bool invert_channels = false;  // record everything that does NOT match
   double split_mb = 0;           // 0: one file
-  std::string logger = "lcm-logger";
+  // harvest-record (the default) or lcm-logger; only harvest-record keeps
+  // channels at a reduced rate and reports size, rate and free space.
+  std::string logger = "harvest-record";
+  double image_rate_hz = 0;                  // 0: every frame; else image_channels at most this often
+  std::string image_channels = "CAMERA_.*";  // regular expression
+  double status_s = 10;                      // size/rate/free-space line this often (0: never)
+  double warn_free_mb = 1000;                // warn while less is free on the folder's disk
+  double warn_fill_minutes = 10;             // warn while the disk would fill within this at the current rate
 };
 
 // One robot's hardware: the values a field set leaves open (CAN bus, camera
@@ -105,7 +112,9 @@ std::vector<std::size_t> start_order(const SetSpec& set);
 // Processes to run for a host group (empty group: all).
 std::vector<std::size_t> select_group(const SetSpec& set, const std::string& group);
 
-// Resolved executable path, or nullopt if it cannot be found / run.
+// Resolved executable path, or nullopt if it cannot be found / run: a path
+// as given (relative to the set file), else bin_dir, the launcher's own
+// folder (harvest-record beside harvest-launch), then PATH.
 std::optional<std::filesystem::path> resolve_executable(const SetSpec& set, const std::string& command);
 
 // Everything that would stop the set from starting, one line each
@@ -114,7 +123,9 @@ std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::si
 
 // Full argument vector (argv[0] = resolved or raw command) for a process.
 std::vector<std::string> command_line(const SetSpec& set, const ProcessSpec& p);
-// lcm-logger command line for the set's recording.
+// Whether the set records with harvest-record (else lcm-logger's options only).
+bool is_harvest_record(const RecordingSpec& r);
+// The recorder's command line (harvest-record or lcm-logger) for the set's recording.
 std::vector<std::string> recorder_command_line(const SetSpec& set, const std::string& timestamp);
 
 // Seconds to wait before restart number `restarts_done + 1`, or nullopt if

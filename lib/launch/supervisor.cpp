@@ -129,7 +129,10 @@ void Supervisor::start(Managed& m) {
 void Supervisor::drain_output(Managed& m) {
   if (m.fd < 0) return;
   char buf[4096];
-  auto emit = [this, &m](const std::string& l) { console_.line(m.spec.name, l); };
+  auto emit = [this, &m](const std::string& l) {
+    console_.line(m.spec.name, l);
+    if (m.recorder) m.reported_message = l;  // the table shows its last size/rate report
+  };
   for (;;) {
     const ssize_t n = read(m.fd, buf, sizeof buf);
     if (n > 0) {

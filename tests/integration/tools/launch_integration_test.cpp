@@ -315,6 +315,9 @@ TEST(Launch, ExitsWithANamedProcessAndRecordsTheRun) {
   }
   EXPECT_TRUE(config_seen);  // the recorder was up before the process started
   EXPECT_TRUE(status_seen);
+  // harvest-record (the default logger), found beside the launcher, told where it records.
+  EXPECT_NE(launch->output().find("[recorder] recording to " + (l.dir / "rec").string() + "/run-"), std::string::npos)
+      << launch->output();
 }
 
 TEST(Launch, GroupStartsOnlyItsProcessesAndCheckStartsNothing) {

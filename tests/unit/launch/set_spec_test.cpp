@@ -158,12 +158,30 @@ TEST(SetSpec, CommandLinesAndPreflight) {
 }
 
 TEST(SetSpec, RecorderCommandLine) {
-  const SetSpec s = parse("processes: [{name: a, command: x}]\nrecording: {enabled: true, folder: /logs, "
-                          "channels: 'CAMERA_.*', invert_channels: true, split_mb: 50, file_prefix: run}");
-  const auto argv = recorder_command_line(s, "20260101-000000");
-  const std::vector<std::string> tail(argv.begin() + 1, argv.end());
-  EXPECT_EQ(tail, (std::vector<std::string>{"--quiet", "--channel=CAMERA_.*", "--invert-channels", "-i",
+  // harvest-record by default: lcm-logger's options plus the reduced image rate and the reports.
+  const std::string rec = "processes: [{name: a, command: x}]\nrecording: {enabled: true, folder: /logs, "
+                          "channels: 'TRUTH_.*', invert_channels: true, split_mb: 50, file_prefix: run, "
+                          "image_rate_hz: 5, status_s: 2, warn_free_mb: 300";
+  const SetSpec s = parse(rec + "}");
+  EXPECT_TRUE(is_harvest_record(s.recording));
+  auto argv = recorder_command_line(s, "20260101-000000");
+  std::vector<std::string> tail(argv.begin() + 1, argv.end());
+  EXPECT_EQ(tail, (std::vector<std::string>{"--channel=TRUTH_.*", "--invert-channels", "-i", "--split-mb=50.000000",
+                                            "--max-rate=CAMERA_.*=5.000000", "--status-s=2.000000",
+                                            "--warn-free-mb=300.000000", "--warn-fill-minutes=10.000000",
+                                            "/logs/run-20260101-000000.lcm"}));
+  EXPECT_TRUE(preflight(s, {}).empty() || preflight(s, {})[0].find("image_rate_hz") == std::string::npos);
+
+  // The stock lcm-logger: its own options only; a reduced image rate it cannot do is refused before the start.
+  const SetSpec stock = parse(rec + ", logger: lcm-logger}");
+  EXPECT_FALSE(is_harvest_record(stock.recording));
+  argv = recorder_command_line(stock, "20260101-000000");
+  tail.assign(argv.begin() + 1, argv.end());
+  EXPECT_EQ(tail, (std::vector<std::string>{"--quiet", "--channel=TRUTH_.*", "--invert-channels", "-i",
                                             "--split-mb=50.000000", "/logs/run-20260101-000000.lcm"}));
+  const auto problems = preflight(stock, {});
+  ASSERT_FALSE(problems.empty());
+  EXPECT_EQ(problems.back(), "recording: image_rate_hz needs logger harvest-record ('lcm-logger' records every message)");
 }
 
 // Every shipped set must stay valid (executables are checked at launch, not here).
