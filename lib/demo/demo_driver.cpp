@@ -150,8 +150,8 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
     launch_log << line << std::endl;  // readable while the run goes on
     // The launcher's own lines (starts, exits, restarts) and every error reach the terminal.
     // So do the recorder's size/rate reports and disk warnings.
-    if (line.rfind("[launch]", 0) == 0 || line.rfind("[recorder]", 0) == 0 || line.find(" error ") != std::string::npos ||
-        line.find("critical") != std::string::npos)
+    if (line.rfind("[launch]", 0) == 0 || line.rfind("[recorder]", 0) == 0 ||
+        line.find(" error ") != std::string::npos || line.find("critical") != std::string::npos)
       out << "  " << line << std::endl;
   };
 

@@ -259,10 +259,9 @@ std::vector<std::string> preflight(const SetSpec& set, const std::vector<std::si
       problems.push_back(p.name + ": working directory " + p.cwd.string() + " does not exist");
   }
   if (set.recording.enabled && !resolve_executable(set, set.recording.logger))
-    problems.push_back("recording: '" + set.recording.logger + "' not found (" +
-                       (is_harvest_record(set.recording) ? "build it: tools/harvest build"
-                                                         : "apt-get install liblcm-bin") +
-                       ")");
+    problems.push_back(
+        "recording: '" + set.recording.logger + "' not found (" +
+        (is_harvest_record(set.recording) ? "build it: tools/harvest build" : "apt-get install liblcm-bin") + ")");
   if (set.recording.enabled && set.recording.image_rate_hz > 0 && !is_harvest_record(set.recording))
     problems.push_back("recording: image_rate_hz needs logger harvest-record ('" + set.recording.logger +
                        "' records every message)");

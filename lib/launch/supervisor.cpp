@@ -52,7 +52,7 @@ Supervisor::Supervisor(SetSpec set, SupervisorOptions options, Console& console,
     r.spec.stop_timeout_s = 5;
     r.argv = recorder_command_line(set_, timestamp);
     r.env = common_env;
-    r.stop_signal = SIGINT;  // lcm-logger flushes and closes its file on SIGINT
+    r.stop_signal = SIGINT;  // harvest-record and lcm-logger flush and close their file on SIGINT
     r.recorder = true;
     procs_.push_back(std::move(r));
   }
@@ -216,7 +216,7 @@ void Supervisor::start_due() {
     if (m.phase == Phase::kBackoff && now() >= m.restart_at) {
       start(m);
     } else if (m.phase == Phase::kWaiting) {
-      // lcm-logger has no heartbeat: give it a moment to subscribe so it sees every CONFIG message.
+      // The recorder has no heartbeat: give it a moment to subscribe so it sees every CONFIG message.
       const Managed& rec = procs_.front();
       if (!m.recorder && rec.recorder && (rec.phase != Phase::kRunning || now() - rec.started < kRecorderSettle))
         continue;

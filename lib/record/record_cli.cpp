@@ -5,8 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cerrno>
-#include <cstring>
 #include <chrono>
+#include <cstring>
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
 
@@ -34,9 +34,10 @@ void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Sink
 }  // namespace
 
 int record_main(int argc, char** argv) {
-  CLI::App app("Record an LCM network to a log file, as lcm-logger does, with reduced-rate channels, size "
-               "splitting and size/rate/free-space reports (docs/recording-and-replay.md)",
-               "harvest-record");
+  CLI::App app(
+      "Record an LCM network to a log file, as lcm-logger does, with reduced-rate channels, size "
+      "splitting and size/rate/free-space reports (docs/recording-and-replay.md)",
+      "harvest-record");
   RecorderOptions o;
   MeterOptions m;
   std::string file, url;

@@ -152,7 +152,8 @@ MeterReport RecordingMeter::update(double t_s, const RecorderStats& stats, doubl
     r.status += ", " + human_bytes(free) + " free";
     if (rate_ > 0) r.status += " (" + duration(free / rate_) + " at this rate)";
   }
-  if (stats.rate_dropped > 0) r.status += ", " + std::to_string(stats.rate_dropped) + " messages left out by rate limits";
+  if (stats.rate_dropped > 0)
+    r.status += ", " + std::to_string(stats.rate_dropped) + " messages left out by rate limits";
 
   std::string warning;
   if (free >= 0 && free < options_.warn_free_mb * kMB)

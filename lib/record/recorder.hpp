@@ -41,8 +41,8 @@ struct RecorderOptions {
 };
 
 struct RecorderStats {
-  int64_t bytes = 0;     // written, all parts
-  int64_t messages = 0;  // written
+  int64_t bytes = 0;         // written, all parts
+  int64_t messages = 0;      // written
   int64_t rate_dropped = 0;  // left out by a rate limit
   int parts = 0;
   std::filesystem::path current;  // the part being written
@@ -70,9 +70,9 @@ class Recorder {
 
   RecorderOptions options_;
   std::regex channels_;
-  std::map<std::string, bool> wanted_;                 // channel -> recorded (regex result cached)
-  std::map<std::string, const RateLimit*> limit_of_;   // channel -> its limit, nullptr: none
-  std::map<std::string, int64_t> next_due_;            // rate-limited channel -> next time one is kept
+  std::map<std::string, bool> wanted_;                // channel -> recorded (regex result cached)
+  std::map<std::string, const RateLimit*> limit_of_;  // channel -> its limit, nullptr: none
+  std::map<std::string, int64_t> next_due_;           // rate-limited channel -> next time one is kept
   std::unique_ptr<lcm::LogFile> log_;
   int64_t part_bytes_ = 0;
   int64_t eventnum_ = 0;
@@ -88,14 +88,13 @@ struct MeterOptions {
 };
 
 struct MeterReport {
-  std::string status;                 // "recording: 123.4 MB in 1 file, 4.52 MB/s, 40.1 GB free (2.5 h at this rate)"
-  std::optional<std::string> warning; // "warning: ..." when one is due
+  std::string status;                  // "recording: 123.4 MB in 1 file, 4.52 MB/s, 40.1 GB free (2.5 h at this rate)"
+  std::optional<std::string> warning;  // "warning: ..." when one is due
 };
 
 class RecordingMeter {
  public:
-  RecordingMeter(MeterOptions options, std::filesystem::path folder)
-      : options_(options), folder_(std::move(folder)) {}
+  RecordingMeter(MeterOptions options, std::filesystem::path folder) : options_(options), folder_(std::move(folder)) {}
   // t_s: seconds since recording started; free_bytes: free space on the folder's disk.
   MeterReport update(double t_s, const RecorderStats& stats, double free_bytes);
 

@@ -28,9 +28,14 @@ std::string slurp(const fs::path& p) {
 }
 
 int run_demo(const std::vector<std::string>& extra, const fs::path& dir, std::string* output) {
-  std::vector<std::string> argv = {ht::bin("harvest-demo"), "--no-plots",           "--lcm-url",
-                                   ht::unique_lcm_url(),    "--out",                (dir / "out").string(),
-                                   "--summary",             (dir / "summary.json").string()};
+  std::vector<std::string> argv = {ht::bin("harvest-demo"),
+                                   "--no-plots",
+                                   "--lcm-url",
+                                   ht::unique_lcm_url(),
+                                   "--out",
+                                   (dir / "out").string(),
+                                   "--summary",
+                                   (dir / "summary.json").string()};
   argv.insert(argv.end(), extra.begin(), extra.end());
   ht::ChildProcess p(argv, dir / "demo.txt");
   const int code = p.wait(std::chrono::seconds(240));
@@ -138,8 +143,9 @@ TEST(Demo, SetRewriteKeepsTheSetAndTellsTheSimulatorItsRun) {
   EXPECT_NE(text.find("cwd: " + fs::canonical(ht::source_path(".")).string()), std::string::npos) << text;
   // The copy lives elsewhere: the site file is named absolutely.
   rw.set_file = ht::source_path("config/sets/sim.yaml");
-  EXPECT_NE(harvest::demo::rewrite_set(rw).find("site: " + fs::canonical(ht::source_path("config/site/sim.yaml")).string()),
-            std::string::npos);
+  EXPECT_NE(
+      harvest::demo::rewrite_set(rw).find("site: " + fs::canonical(ht::source_path("config/site/sim.yaml")).string()),
+      std::string::npos);
   rw.extra_args["nosuch"] = {"--set", "a=1"};
   EXPECT_THROW(harvest::demo::rewrite_set(rw), std::runtime_error);
 }

@@ -366,11 +366,11 @@ TEST(SimPorts, ABusOrBoardPortAnotherRunHoldsIsRefusedClearly) {
   ht::TempDir tmp;
   { std::ofstream(tmp / "scenario.yaml") << kScenario; }
   const auto start_sim = [&](const std::string& bus, int port, const std::string& out) {
-    ht::ChildProcess sim({ht::bin("harvest-sim"), "--config", ht::source_path("config/sim/sim-devices.yaml"), "--set",
-                          "scenario=" + (tmp / "scenario.yaml").string(), "--set", "devices.bus=" + bus, "--set",
-                          "devices.board.port=" + std::to_string(port), "--lcm-url", ht::unique_lcm_url(),
-                          "--no-netcheck"},
-                         tmp / out);
+    ht::ChildProcess sim(
+        {ht::bin("harvest-sim"), "--config", ht::source_path("config/sim/sim-devices.yaml"), "--set",
+         "scenario=" + (tmp / "scenario.yaml").string(), "--set", "devices.bus=" + bus, "--set",
+         "devices.board.port=" + std::to_string(port), "--lcm-url", ht::unique_lcm_url(), "--no-netcheck"},
+        tmp / out);
     const int code = sim.wait(30s);
     return std::make_pair(code, sim.output());
   };

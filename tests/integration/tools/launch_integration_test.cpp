@@ -97,10 +97,10 @@ TEST(Launch, RestartsACrashingProcessPerPolicyThenStopsTheSetWhenCritical) {
 TEST(Launch, AProcessThatEndsTheSetStopsItWhenItExits) {
   const std::string sleeper = kFixtures + "/sleeper.sh";
   const auto set_with = [&](Launch& l, bool ends) {
-    return l.write_set(std::string("processes:\n  - {name: world, command: ") + STANDIN_EXE +
-                       ", args: [--no-netcheck, --set, exit_after_s=1.0, --set, exit_code=0], ends_set: " +
-                       (ends ? "true" : "false") + "}\n  - {name: other, command: " + sleeper +
-                       ", args: [other], harvest_options: false}\n");
+    return l.write_set(
+        std::string("processes:\n  - {name: world, command: ") + STANDIN_EXE +
+        ", args: [--no-netcheck, --set, exit_after_s=1.0, --set, exit_code=0], ends_set: " + (ends ? "true" : "false") +
+        "}\n  - {name: other, command: " + sleeper + ", args: [other], harvest_options: false}\n");
   };
   Launch ends;
   auto launch = ends.start(set_with(ends, true));

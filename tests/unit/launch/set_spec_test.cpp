@@ -159,9 +159,10 @@ TEST(SetSpec, CommandLinesAndPreflight) {
 
 TEST(SetSpec, RecorderCommandLine) {
   // harvest-record by default: lcm-logger's options plus the reduced image rate and the reports.
-  const std::string rec = "processes: [{name: a, command: x}]\nrecording: {enabled: true, folder: /logs, "
-                          "channels: 'TRUTH_.*', invert_channels: true, split_mb: 50, file_prefix: run, "
-                          "image_rate_hz: 5, status_s: 2, warn_free_mb: 300";
+  const std::string rec =
+      "processes: [{name: a, command: x}]\nrecording: {enabled: true, folder: /logs, "
+      "channels: 'TRUTH_.*', invert_channels: true, split_mb: 50, file_prefix: run, "
+      "image_rate_hz: 5, status_s: 2, warn_free_mb: 300";
   const SetSpec s = parse(rec + "}");
   EXPECT_TRUE(is_harvest_record(s.recording));
   auto argv = recorder_command_line(s, "20260101-000000");
@@ -181,7 +182,8 @@ TEST(SetSpec, RecorderCommandLine) {
                                             "--split-mb=50.000000", "/logs/run-20260101-000000.lcm"}));
   const auto problems = preflight(stock, {});
   ASSERT_FALSE(problems.empty());
-  EXPECT_EQ(problems.back(), "recording: image_rate_hz needs logger harvest-record ('lcm-logger' records every message)");
+  EXPECT_EQ(problems.back(),
+            "recording: image_rate_hz needs logger harvest-record ('lcm-logger' records every message)");
 }
 
 // Every shipped set must stay valid (executables are checked at launch, not here).

@@ -148,8 +148,9 @@ TEST(RecordingMeter, ReportsSizeRateAndWarnsBeforeTheDiskFills) {
   s.rate_dropped = 7;
   r = m.update(64, s, 500 * kMB);
   ASSERT_TRUE(r.warning);
-  EXPECT_EQ(*r.warning, "warning: only 500.0 MB free on the disk holding /data/logs (warning below 1000.0 MB): free "
-                        "space, or the recording stops when it is full");
+  EXPECT_EQ(*r.warning,
+            "warning: only 500.0 MB free on the disk holding /data/logs (warning below 1000.0 MB): free "
+            "space, or the recording stops when it is full");
   EXPECT_NE(r.status.find("in 2 files"), std::string::npos) << r.status;
   EXPECT_NE(r.status.find("7 messages left out by rate limits"), std::string::npos) << r.status;
   EXPECT_GT(free_bytes("/"), 0);
