@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -92,35 +93,55 @@ TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
 
 // The field-faithful set: the simulator plays only the hardware; the robot
 // link drives the arm's CiA 402 drives over the virtual CAN bus and the
-// end-effector bridge talks to the board over TCP. The demo gives the run its
-// own bus and board port (free at its start), so parallel tests and demos do
-// not meet; the set's defaults (config/site/sim.yaml) are not used.
-TEST(Demo, FieldSetPicksExperimentOneOverCanAndTheBoardLink) {
+// end-effector bridge talks to the board over TCP. Two demos at once on this
+// machine, each choosing its own LCM port, bus and board port (none given
+// here): both pick their fruit, neither hears the other's drives (the robot
+// link faults on a frame it did not send) nor takes the other's board port.
+TEST(Demo, TwoFieldSetDemosAtOnceEachPickOverTheirOwnCanBusAndBoardPort) {
   ht::TempDir dir;
-  std::string out;
-  ASSERT_EQ(run_demo({"--set", "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml",
-                      // A stall of the link on the loaded test machine must not trip the drives' 25 ms deadline.
-                      "--process-set", "robot-link:can.drive_rpdo_timeout_ms=200", "--process-set",
-                      "robot-link:can.drive_heartbeat_timeout_ms=300"},
-                     dir.path(), &out),
-            0)
-      << out;
-  const std::string summary = slurp(dir / "summary.json");
-  EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary << out;
-  // ROBOT_STATE came from the robot link, IR_RANGE from the bridge.
-  const std::string launch_log = slurp(dir / "out" / "run0-launch.log");
-  EXPECT_NE(launch_log.find("started robot-link"), std::string::npos) << launch_log;
-  EXPECT_NE(launch_log.find("started ee-bridge"), std::string::npos) << launch_log;
-  // On the run's own bus and port, which the simulator, the link and the bridge were all given.
-  std::smatch m;
-  ASSERT_TRUE(std::regex_search(out, m, std::regex("virtual CAN bus (udp_multicast:\\S+), board port (\\d+)"))) << out;
-  const std::string bus = m[1], port = m[2];
-  EXPECT_NE(bus, "udp_multicast:239.74.163.2:43113?ttl=0");
-  EXPECT_NE(port, "4001");
-  EXPECT_NE(launch_log.find("devices.bus=" + bus), std::string::npos) << launch_log;
-  EXPECT_NE(launch_log.find("robot_link.yaml --set bus=" + bus), std::string::npos) << launch_log;
-  EXPECT_NE(launch_log.find("devices.board.port=" + port), std::string::npos) << launch_log;
-  EXPECT_NE(launch_log.find("link.tcp.port=" + port), std::string::npos) << launch_log;
+  std::vector<std::unique_ptr<ht::ChildProcess>> demos;
+  for (const std::string k : {"a", "b"}) {
+    fs::create_directories(dir / k);
+    demos.push_back(std::make_unique<ht::ChildProcess>(
+        std::vector<std::string>{ht::bin("harvest-demo"), "--no-plots", "--out", (dir / k / "out").string(), "--set",
+                                 "config/sets/sim.yaml", "--scenario", "config/scenarios/experiment1.yaml",
+                                 // A stall of the link on the loaded test machine must not trip the drives' 25 ms
+                                 // deadline.
+                                 "--process-set", "robot-link:can.drive_rpdo_timeout_ms=200", "--process-set",
+                                 "robot-link:can.drive_heartbeat_timeout_ms=300"},
+        dir / k / "demo.txt"));
+  }
+  std::set<std::string> buses, ports, urls;
+  for (std::size_t i = 0; i < demos.size(); ++i) {
+    const fs::path d = dir / (i == 0 ? "a" : "b");
+    const int code = demos[i]->wait(std::chrono::seconds(240));
+    const std::string out = demos[i]->output();
+    EXPECT_EQ(code, 0) << out;
+    const std::string summary = slurp(d / "out" / "summary.json");
+    EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary << out;
+    // ROBOT_STATE came from the robot link, IR_RANGE from the bridge.
+    const std::string launch_log = slurp(d / "out" / "run0-launch.log");
+    EXPECT_NE(launch_log.find("started robot-link"), std::string::npos) << launch_log;
+    EXPECT_NE(launch_log.find("started ee-bridge"), std::string::npos) << launch_log;
+    // On the run's own bus and port, which the simulator, the link and the bridge were all given.
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(out, m, std::regex("virtual CAN bus (udp_multicast:\\S+), board port (\\d+)")))
+        << out;
+    const std::string bus = m[1], port = m[2];
+    EXPECT_NE(bus, "udp_multicast:239.74.163.2:43113?ttl=0");
+    EXPECT_NE(port, "4001");
+    EXPECT_NE(launch_log.find("devices.bus=" + bus), std::string::npos) << launch_log;
+    EXPECT_NE(launch_log.find("robot_link.yaml --set bus=" + bus), std::string::npos) << launch_log;
+    EXPECT_NE(launch_log.find("devices.board.port=" + port), std::string::npos) << launch_log;
+    EXPECT_NE(launch_log.find("link.tcp.port=" + port), std::string::npos) << launch_log;
+    ASSERT_TRUE(std::regex_search(launch_log, m, std::regex("--lcm-url (udpm://\\S+)"))) << launch_log;
+    buses.insert(bus);
+    ports.insert(port);
+    urls.insert(m[1]);
+  }
+  EXPECT_EQ(buses.size(), 2u);
+  EXPECT_EQ(ports.size(), 2u);
+  EXPECT_EQ(urls.size(), 2u);
 }
 
 TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
