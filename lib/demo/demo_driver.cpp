@@ -43,7 +43,8 @@ namespace ch = harvest::channels;
 namespace {
 
 std::atomic<int> g_signal{0};
-extern "C" void on_signal(int sig) { g_signal = sig; }
+// Not extern "C": a C-linkage name ignores the anonymous namespace and clashed with the runtime's on_signal.
+void on_demo_signal(int sig) { g_signal = sig; }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -109,7 +110,9 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
       rw.extra_args[name].push_back("--set");
       rw.extra_args[name].push_back(assignment);
     }
-    for (const std::string& a : {"scenario=" + o.scenario.string(), "run=" + std::to_string(run)}) {
+    std::vector<std::string> sim_sets{"scenario=" + o.scenario.string(), "run=" + std::to_string(run)};
+    if (!o.seeds.empty()) sim_sets.push_back("seed=" + std::to_string(o.seeds[static_cast<std::size_t>(run)]));
+    for (const std::string& a : sim_sets) {
       rw.extra_args["sim"].push_back("--set");
       rw.extra_args["sim"].push_back(a);
     }
@@ -259,12 +262,60 @@ void write_report(const DemoOptions& o, const sim::Evaluation& e, const std::vec
 
 }  // namespace
 
+namespace {
+std::string seed_text(const std::vector<uint64_t>& seeds) {
+  std::string t;
+  for (std::size_t i = 0; i < seeds.size(); ++i) t += (i ? "," : "") + std::to_string(seeds[i]);
+  return t;
+}
+}  // namespace
+
+std::vector<uint64_t> parse_seed_list(const std::string& text) {
+  std::vector<uint64_t> seeds;
+  auto number = [&](const std::string& t) -> uint64_t {
+    if (t.empty() || t.find_first_not_of("0123456789") != std::string::npos || t.size() > 18)
+      throw std::invalid_argument("'" + t + "' in '" + text + "' is not a seed (a whole number >= 0)");
+    return std::stoull(t);
+  };
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const std::size_t dash = item.find('-');
+    if (dash == std::string::npos) {
+      seeds.push_back(number(item));
+    } else {
+      const uint64_t from = number(item.substr(0, dash)), to = number(item.substr(dash + 1));
+      if (to < from) throw std::invalid_argument("'" + item + "': a range goes up (FROM-TO with FROM <= TO)");
+      if (to - from >= 1000) throw std::invalid_argument("'" + item + "': more than 1000 seeds");
+      for (uint64_t k = from; k <= to; ++k) seeds.push_back(k);
+    }
+    start = comma + 1;
+  }
+  if (seeds.size() > 1000) throw std::invalid_argument("'" + text + "': more than 1000 seeds");
+  return seeds;
+}
+
 bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
   CLI::App app{"Run the simulated harvest end to end: simulator + the field process set (docs/demo.md)"};
   o.root = fs::path(HARVEST_SOURCE_DIR);
   std::string scenario = "config/scenarios/experiment1.yaml", set = "config/sets/sim.yaml", out, summary, bin;
   app.add_option("--scenario", scenario, "scenario file (config/scenarios/*.yaml)")->capture_default_str();
-  app.add_option("--runs", o.runs, "repeat the scenario this many times from its start")->check(CLI::Range(1, 1000));
+  auto* runs_opt = app.add_option("--runs", o.runs, "repeat the scenario this many times from its start")
+                       ->check(CLI::Range(1, 1000));
+  std::string seeds;
+  app.add_option("--seeds", seeds,
+                 "a tree benchmark: one run per seed, the scenario drawn with that seed (\"1-10\", \"3,7,11-12\"); "
+                 "the summary gives each run's figures and the mean, worst and spread")
+      ->excludes(runs_opt)
+      ->check([](const std::string& v) {
+        try {
+          parse_seed_list(v);
+          return std::string();
+        } catch (const std::exception& e) {
+          return std::string(e.what());
+        }
+      });
   app.add_option("--summary", summary, "also write the machine-readable summary (JSON) here");
   app.add_option("--set", set, "process set to run")->capture_default_str();
   app.add_option("--out", out, "output folder (default logs/demo/<UTC time>-<scenario>)");
@@ -293,6 +344,10 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
     return false;
   }
   o.plots = !no_plots;
+  if (!seeds.empty()) {
+    o.seeds = parse_seed_list(seeds);
+    o.runs = static_cast<int>(o.seeds.size());
+  }
   for (const auto& v : process_sets) o.process_sets.emplace_back(v.substr(0, v.find(':')), v.substr(v.find(':') + 1));
   // Relative paths: from the current folder if they exist there, else from the repository root.
   auto from_root = [&](const std::string& p) {
@@ -309,6 +364,7 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
 
 int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
   DemoOptions o = opt;
+  if (!o.seeds.empty()) o.runs = static_cast<int>(o.seeds.size());
   sim::Scenario scenario;
   try {
     scenario = sim::load_scenario(o.scenario.string());
@@ -328,11 +384,12 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
     err << "harvest-demo: cannot open LCM at " << o.lcm_url << " (try `tools/harvest netfix`)\n";
     return 1;
   }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, on_demo_signal);
+  std::signal(SIGTERM, on_demo_signal);
 
-  out << "harvest-demo: scenario '" << scenario.name << "' (" << o.scenario.string() << "), " << o.runs
-      << " run(s), set " << o.set_file.filename().string() << ", output in " << o.out_dir.string() << std::endl;
+  out << "harvest-demo: scenario '" << scenario.name << "' (" << o.scenario.string() << "), " << o.runs << " run(s)"
+      << (o.seeds.empty() ? "" : " (seeds " + seed_text(o.seeds) + ")") << ", set " << o.set_file.filename().string()
+      << ", output in " << o.out_dir.string() << std::endl;
   sim::Evaluation e;
   std::vector<RunResult> results;
   int code = 0;
@@ -352,7 +409,10 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
           auto more = rt::read_log(part.string());
           records.insert(records.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
         }
-        sim::evaluate_run(records, scenario.for_run(run), run, e);
+        const auto run_scenario = o.seeds.empty()
+                                      ? scenario.for_run(run)
+                                      : scenario.for_run(run).with_seed(o.seeds[static_cast<std::size_t>(run)]);
+        sim::evaluate_run(records, run_scenario, run, e);
       } catch (const std::exception& ex) {
         r.problem += (r.problem.empty() ? "" : "; ") + std::string("evaluation failed: ") + ex.what();
         code = 1;

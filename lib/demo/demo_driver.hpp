@@ -7,6 +7,7 @@
 // tools/plot_log.py is present) in the output folder. docs/demo.md.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <iosfwd>
 #include <string>
@@ -20,6 +21,9 @@ struct DemoOptions {
   std::filesystem::path set_file;  // process set, default config/sets/sim.yaml
   std::filesystem::path scenario;  // scenario file
   int runs = 1;
+  // --seeds: one run per seed, the scenario drawn with that seed (another tree of the same kind); empty: the
+  // scenario's own seed for every run.
+  std::vector<uint64_t> seeds;
   std::filesystem::path out_dir;       // default logs/demo/<UTC time>-<scenario>
   std::filesystem::path summary_path;  // extra copy of summary.json (--summary)
   std::string lcm_url;                 // default: a multicast port free on this host, TTL 0
@@ -35,6 +39,9 @@ struct DemoOptions {
 // Runs the demo; returns the process exit code (0 when every run ended
 // normally, 1 otherwise, 2 on bad options). Progress goes to `out`.
 int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err);
+
+// "1-10", "3,7,11-12" -> the seeds in that order. Throws std::invalid_argument saying what is wrong.
+std::vector<uint64_t> parse_seed_list(const std::string& text);
 
 // Command line -> options (CLI11); returns false and the exit code for --help
 // or errors.

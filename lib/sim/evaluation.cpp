@@ -117,6 +117,11 @@ void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenari
   if (e.scenario.empty()) e.scenario = last.scenario;
   e.runs += 1;
   e.sim_duration_s += (last.header.utime - first.header.utime) * 1e-6;
+  RunFigures rf;
+  rf.run = run;
+  rf.seed = scenario.seed;
+  rf.sim_duration_s = (last.header.utime - first.header.utime) * 1e-6;
+  e.per_run.push_back(rf);
 
   std::vector<FruitResult> results;
   for (const auto& f : last.fruits) {
@@ -233,6 +238,47 @@ void finish(Evaluation& e) {
   }
   e.depth_fixed = bin(e.depth_samples_fixed);
   e.depth_hand = bin(e.depth_samples_hand);
+
+  for (auto& r : e.per_run) {
+    std::vector<double> run_cycles, run_errors;
+    r.reachable = r.picked = r.picked_any = 0;
+    for (const auto& f : e.fruit) {
+      if (f.run != r.run) continue;
+      const bool picked = f.outcome == "picked";
+      r.picked_any += picked;
+      if (!f.counted) continue;
+      ++r.reachable;
+      if (!picked) continue;
+      ++r.picked;
+      if (f.cycle_time_s) run_cycles.push_back(*f.cycle_time_s);
+      if (f.final_offset) run_errors.push_back(f.final_offset->norm() * 1e3);
+    }
+    r.success_rate = r.reachable > 0 ? static_cast<double>(r.picked) / r.reachable : 0.0;
+    r.mean_cycle_s = mean(run_cycles);
+    r.mean_error_mm = mean(run_errors);
+    r.max_error_mm = max(run_errors);
+    r.time_per_pick_s = r.picked_any > 0 ? r.sim_duration_s / r.picked_any : std::nan("");
+  }
+  AcrossRuns& a = e.across_runs;
+  a = AcrossRuns{};
+  if (!e.per_run.empty()) {
+    std::vector<double> rates;
+    a.worst_success = 2.0;
+    a.best_success = -1.0;
+    for (const auto& r : e.per_run) {
+      rates.push_back(r.success_rate);
+      if (r.success_rate < a.worst_success) {
+        a.worst_success = r.success_rate;
+        a.worst_run = r.run;
+      }
+      a.best_success = std::max(a.best_success, r.success_rate);
+      if (!std::isnan(r.max_error_mm)) a.worst_error_mm = std::max(a.worst_error_mm, r.max_error_mm);
+    }
+    a.mean_success = mean(rates);
+    double s2 = 0;
+    for (double x : rates) s2 += (x - a.mean_success) * (x - a.mean_success);
+    a.std_success = rates.size() > 1 ? std::sqrt(s2 / static_cast<double>(rates.size() - 1)) : 0.0;
+  }
 }
 
 std::string to_json(const Evaluation& e) {
@@ -259,7 +305,23 @@ std::string to_json(const Evaluation& e) {
       << ", \"true_position_mm\": [" << number(f.true_position.x() * 1e3, 1) << ", "
       << number(f.true_position.y() * 1e3, 1) << ", " << number(f.true_position.z() * 1e3, 1) << "]}";
   }
-  o << "\n  ],\n";
+  o << "\n  ],\n  \"per_run\": [";
+  for (std::size_t i = 0; i < e.per_run.size(); ++i) {
+    const auto& r = e.per_run[i];
+    o << (i ? "," : "") << "\n    {\"run\": " << r.run << ", \"seed\": " << r.seed << ", \"reachable\": " << r.reachable
+      << ", \"picked\": " << r.picked << ", \"picked_any\": " << r.picked_any
+      << ", \"success_rate\": " << number(r.success_rate, 4) << ", \"mean_cycle_time_s\": " << number(r.mean_cycle_s)
+      << ", \"mean_final_error_mm\": " << number(r.mean_error_mm, 2)
+      << ", \"max_final_error_mm\": " << number(r.max_error_mm, 2)
+      << ", \"simulated_time_s\": " << number(r.sim_duration_s, 1)
+      << ", \"time_per_pick_s\": " << number(r.time_per_pick_s, 2) << "}";
+  }
+  const AcrossRuns& a = e.across_runs;
+  o << "\n  ],\n  \"across_runs\": {\"mean_success_rate\": " << number(a.mean_success, 4)
+    << ", \"worst_success_rate\": " << number(a.worst_success, 4) << ", \"worst_run\": " << a.worst_run
+    << ", \"best_success_rate\": " << number(a.best_success, 4)
+    << ", \"std_success_rate\": " << number(a.std_success, 4)
+    << ", \"worst_final_error_mm\": " << number(a.worst_error_mm, 2) << "},\n";
   auto bins = [&](const char* key, const std::vector<DepthBin>& v) {
     o << "  \"" << key << "\": [";
     for (std::size_t i = 0; i < v.size(); ++i)
@@ -301,6 +363,23 @@ std::string to_table(const Evaluation& e) {
                 number(e.final_tool_std_mm[1], 1).c_str(), number(e.final_tool_std_mm[2], 1).c_str(),
                 number(e.time_per_pick_s, 1).c_str());
   o << line;
+  if (e.per_run.size() > 1) {
+    o << "per run (seed: picked/counted, success, mean cycle s, max error mm, run time per pick s):\n";
+    for (const auto& r : e.per_run) {
+      std::snprintf(line, sizeof line, "  run %-3d seed %-6llu %3d/%-3d %5.1f %%  %6s  %6s  %6s\n", r.run,
+                    static_cast<unsigned long long>(r.seed), r.picked, r.reachable, 100.0 * r.success_rate,
+                    number(r.mean_cycle_s, 2).c_str(), number(r.max_error_mm, 1).c_str(),
+                    number(r.time_per_pick_s, 1).c_str());
+      o << line;
+    }
+    const AcrossRuns& a = e.across_runs;
+    std::snprintf(line, sizeof line,
+                  "across %zu runs: success mean %.1f %%, worst %.1f %% (run %d), best %.1f %%, std %.1f points; "
+                  "worst final error %s mm\n",
+                  e.per_run.size(), 100.0 * a.mean_success, 100.0 * a.worst_success, a.worst_run,
+                  100.0 * a.best_success, 100.0 * a.std_success, number(a.worst_error_mm, 1).c_str());
+    o << line;
+  }
   auto bins = [&](const char* name, const std::vector<DepthBin>& v) {
     if (v.empty()) return;
     o << "depth error, " << name << " camera (true depth bin: samples, mean, rms mm):\n";

@@ -28,6 +28,23 @@ struct FruitResult {
   Vec3 true_position = Vec3::Zero();
 };
 
+// One run's figures (a seed of a tree benchmark, or a variant).
+struct RunFigures {
+  int run = 0;
+  uint64_t seed = 0;  // the scenario's seed in that run
+  int reachable = 0, picked = 0, picked_any = 0;
+  double success_rate = 0.0;
+  double mean_cycle_s = 0.0, mean_error_mm = 0.0, max_error_mm = 0.0;
+  double sim_duration_s = 0.0, time_per_pick_s = 0.0;
+};
+
+// Success rate over runs: mean, worst and best run, sample standard deviation.
+struct AcrossRuns {
+  double mean_success = 0.0, worst_success = 0.0, best_success = 0.0, std_success = 0.0;
+  int worst_run = -1;
+  double worst_error_mm = 0.0;  // largest final error of any run
+};
+
 struct DepthBin {
   double from_m = 0.0, to_m = 0.0;
   int samples = 0;
@@ -50,6 +67,8 @@ struct Evaluation {
   // including what the cycle time leaves out (returns home, fruit given up).
   double time_per_pick_s = 0.0;
   std::vector<FruitResult> fruit;
+  std::vector<RunFigures> per_run;  // in run order (finish() fills the figures)
+  AcrossRuns across_runs;           // finish(), from per_run
   std::vector<DepthBin> depth_fixed, depth_hand;
   std::vector<std::string> warnings;
   // (true depth, estimate - truth) [m] per target seen, filled by evaluate_run.

@@ -242,6 +242,12 @@ Scenario Scenario::for_run(int run) const {
   return s;
 }
 
+Scenario Scenario::with_seed(uint64_t new_seed) const {
+  Scenario s = *this;
+  s.seed = s.look.seed = new_seed;
+  return s;
+}
+
 Scenario load_scenario(const std::string& path) {
   const auto doc = config::Document::load_file(path);
   Scenario s = Scenario::from_config(doc.root());

@@ -203,6 +203,8 @@ struct Scenario {
 
   // The scenario as run number `run` sees it (its variant applied).
   Scenario for_run(int run) const;
+  // The same scenario drawn with another seed (random fruit, looks): another tree of the same kind.
+  Scenario with_seed(uint64_t seed) const;
 };
 
 // Loads a scenario file and rejects unknown keys. Throws config::Error.

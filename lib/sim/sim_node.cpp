@@ -1,5 +1,7 @@
 #include "sim/sim_node.hpp"
 
+#include <limits>
+
 #include <spdlog/spdlog.h>
 
 #include <cerrno>
@@ -51,6 +53,7 @@ SimConfig SimConfig::from_config(const config::Node& n) {
   SimConfig c;
   c.scenario_path = n.file_path("scenario").string();
   c.run = n.get<int>("run", 0, {0, 100000});
+  c.seed = n.get<int64_t>("seed", -1, {-1, std::numeric_limits<int64_t>::max()});
   c.hardware = n.choice("hardware", c.hardware, {"direct", "devices"});
   if (c.hardware == "devices" || n.has("devices")) c.devices = DevicesConfig::from_config(n.child("devices"));
   const auto hand_eye = n.file_path("hand_eye", "config/cameras/hand_eye.yaml");
@@ -147,8 +150,8 @@ void SimNode::on_attach() {
   int counted = 0;
   for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
     counted += counts(scene_.fruit()[i], fixed_visible_fraction_[i]);
-  spdlog::info("scenario '{}' run {}: {} fruit, {} reachable and at least half visible to the fixed camera",
-               scenario_.name, config_.run, scene_.fruit().size(), counted);
+  spdlog::info("scenario '{}' run {} seed {}: {} fruit, {} reachable and at least half visible to the fixed camera",
+               scenario_.name, config_.run, scenario_.seed, scene_.fruit().size(), counted);
   set_health(rt::Health::kOk);
 }
 

@@ -35,6 +35,7 @@ inline constexpr const char* kSimTruthChannel = "SIM_TRUTH";  // sim_truth_t
 struct SimConfig {
   std::string scenario_path;
   int run = 0;
+  int64_t seed = -1;  // >= 0: draw the scenario with this seed instead of its own (tree benchmarks)
   std::string hardware = "direct";       // "direct" or "devices" (see docs/simulator.md)
   std::optional<DevicesConfig> devices;  // hardware "devices": drives, bus and board
   // Hardware "direct": the software's camera-in-hand calibration (the file the

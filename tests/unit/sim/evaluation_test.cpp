@@ -83,6 +83,50 @@ TEST(Evaluation, ControllerCycleTimesAreMatchedByItsFruitEstimate) {
   EXPECT_NE(to_json(e).find("\"time_per_pick_s\": 5.00"), std::string::npos) << to_json(e);
 }
 
+// A tree benchmark: three runs (seeds 11, 12, 13) scored one by one, then across runs. Run 0 picks both
+// counted fruit, run 1 one of two (8 mm and - off), run 2 none of one.
+TEST(Evaluation, EachRunsFiguresAndTheirSpreadAcrossRuns) {
+  const Scenario base = load_scenario("config/scenarios/experiment1.yaml");
+  const Vec3 a(-0.27, 1.02, -0.54), b(-0.07, 1.17, -0.38);
+  Evaluation e;
+  auto run_log = [&](std::vector<sim_fruit_truth_t> end, int64_t seconds) {
+    std::vector<sim_fruit_truth_t> start = end;
+    for (auto& f : start) f.state = sim_fruit_truth_t::ON_TREE;
+    return std::vector<rt::LogRecord>{truth(kT0, start), truth(kT0 + seconds * 1'000'000, end)};
+  };
+  evaluate_run(run_log({fruit(0, a, sim_fruit_truth_t::PICKED, kT0 + 5'000'000),
+                        fruit(1, b, sim_fruit_truth_t::PICKED, kT0 + 11'000'000)},
+                       12),
+               base.with_seed(11), 0, e);
+  evaluate_run(run_log({fruit(0, a, sim_fruit_truth_t::PICKED, kT0 + 7'000'000),
+                        fruit(1, b, sim_fruit_truth_t::ON_TREE, 0)},
+                       20),
+               base.with_seed(12), 1, e);
+  evaluate_run(run_log({fruit(0, a, sim_fruit_truth_t::ON_TREE, 0)}, 30), base.with_seed(13), 2, e);
+  finish(e);
+  ASSERT_EQ(e.per_run.size(), 3u);
+  EXPECT_EQ(e.per_run[1].seed, 12u);
+  EXPECT_EQ(e.per_run[0].picked, 2);
+  EXPECT_EQ(e.per_run[0].reachable, 2);
+  EXPECT_NEAR(e.per_run[0].mean_cycle_s, 5.5, 1e-9);  // 5 s, then 6 s
+  EXPECT_NEAR(e.per_run[0].time_per_pick_s, 6.0, 1e-9);
+  EXPECT_NEAR(e.per_run[1].success_rate, 0.5, 1e-12);
+  EXPECT_NEAR(e.per_run[1].max_error_mm, 15.0, 1e-9);
+  EXPECT_EQ(e.per_run[2].picked, 0);
+  EXPECT_EQ(e.per_run[2].reachable, 1);
+  // Success 1, 0.5, 0: mean 0.5, worst run 2, sample std 0.5.
+  EXPECT_NEAR(e.across_runs.mean_success, 0.5, 1e-12);
+  EXPECT_NEAR(e.across_runs.worst_success, 0.0, 1e-12);
+  EXPECT_EQ(e.across_runs.worst_run, 2);
+  EXPECT_NEAR(e.across_runs.best_success, 1.0, 1e-12);
+  EXPECT_NEAR(e.across_runs.std_success, 0.5, 1e-12);
+  const std::string json = to_json(e);
+  EXPECT_NE(json.find("{\"run\": 1, \"seed\": 12, \"reachable\": 2, \"picked\": 1,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"worst_run\": 2"), std::string::npos) << json;
+  const std::string table = to_table(e);
+  EXPECT_NE(table.find("across 3 runs: success mean 50.0 %, worst 0.0 % (run 2)"), std::string::npos) << table;
+}
+
 TEST(Evaluation, ALogWithoutGroundTruthIsRefused) {
   const Scenario scenario = load_scenario("config/scenarios/experiment1.yaml");
   Evaluation e;

@@ -75,6 +75,26 @@ TEST(Scenario, LookIsFlatUnlessAskedAndCarriesTheSeed) {
   EXPECT_EQ(s.look.seed, 9u);
 }
 
+// A tree benchmark's runs: the same scenario drawn with other seeds is another tree of the same kind (other
+// random fruit and leaves, other looks); the same seed gives the same tree.
+TEST(Scenario, WithSeedDrawsAnotherTreeOfTheSameKind) {
+  const Scenario tree = load_scenario("config/scenarios/tree.yaml");
+  const Scenario other = tree.with_seed(tree.seed + 1);
+  EXPECT_EQ(other.seed, tree.seed + 1);
+  EXPECT_EQ(other.look.seed, tree.seed + 1);
+  EXPECT_EQ(other.random_fruit.count, tree.random_fruit.count);
+  const Scene a(tree), b(other), a2(tree.with_seed(tree.seed));
+  ASSERT_EQ(a.fruit().size(), b.fruit().size());
+  ASSERT_EQ(a.fruit().size(), a2.fruit().size());
+  double moved = 0, same = 0;
+  for (std::size_t i = 0; i < a.fruit().size(); ++i) {
+    moved += (a.fruit()[i].stem_position - b.fruit()[i].stem_position).norm();
+    same += (a.fruit()[i].stem_position - a2.fruit()[i].stem_position).norm();
+  }
+  EXPECT_GT(moved, 0.1 * static_cast<double>(tree.random_fruit.count));  // metres in all: the fruit moved
+  EXPECT_EQ(same, 0.0);
+}
+
 // The simulator's true fixed-camera extrinsic (eq. 4-1's rotation, a
 // translation worked out from table 6-3's one fruit: T = p_base - R p_cam =
 // (-241.3, 228.6, -400.5) mm) against the fruit the thesis measured
