@@ -40,8 +40,8 @@ constexpr int kVerdictCount = 7;
 const char* to_string(Verdict v);
 
 struct Policy {
-  std::vector<std::string> senders;         // whom to obey; empty obeys nobody
-  rt::Micros max_age_us = 1 * rt::kSecond;  // oldest signing time accepted
+  std::vector<std::string> senders;            // whom to obey; empty obeys nobody
+  rt::Micros max_age_us = 1 * rt::kSecond;     // oldest signing time accepted
   rt::Micros max_ahead_us = 100 * rt::kMilli;  // sender clock ahead of ours
 };
 

@@ -7,7 +7,6 @@
 // link on a real CAN bus refuses. Exit codes: 0 written, 1 cannot write
 // (exists without --force, directory missing, ...), 2 bad command line.
 #include <CLI/CLI.hpp>
-
 #include <iostream>
 
 #include "security/key.hpp"

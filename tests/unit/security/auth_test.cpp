@@ -3,9 +3,9 @@
 #include "security/auth.hpp"
 
 #include <gtest/gtest.h>
-#include <harvest/twist_t.hpp>
 
 #include <cstring>
+#include <harvest/twist_t.hpp>
 
 namespace sec = harvest::security;
 using harvest::rt::kMilli;
