@@ -4,46 +4,15 @@
 
 #include <gtest/gtest.h>
 
-#include <cstring>
-#include <harvest/twist_t.hpp>
+#include "twist_command.hpp"
 
 namespace sec = harvest::security;
 using harvest::rt::kMilli;
 using harvest::rt::kSecond;
 using harvest::rt::ManualClock;
+using harvest::test::TwistCommand;
 
 namespace {
-
-// A command as lcm-gen lays one out with auth_t as its last field: a real
-// twist_t body, then the auth fields in auth_t's order (until the command
-// types carry auth_t, docs/security.md).
-struct TwistCommand {
-  harvest::twist_t twist{};
-  struct {
-    std::string sender;
-    int64_t seq = 0;
-    int64_t utime = 0;
-    int8_t mac[32] = {};
-  } auth;
-
-  int getEncodedSize() const {
-    return static_cast<int>(twist.getEncodedSize() + 4 + auth.sender.size() + 1 + 16 + sizeof(auth.mac));
-  }
-  int encode(void* buf, int offset, int maxlen) const {
-    auto* p = static_cast<uint8_t*>(buf) + offset;
-    int n = twist.encode(p, 0, maxlen);
-    uint32_t len = static_cast<uint32_t>(auth.sender.size() + 1);
-    std::memcpy(p + n, &len, 4);
-    n += 4;
-    std::memcpy(p + n, auth.sender.c_str(), len);
-    n += static_cast<int>(len);
-    std::memcpy(p + n, &auth.seq, 8);
-    std::memcpy(p + n + 8, &auth.utime, 8);
-    n += 16;
-    std::memcpy(p + n, auth.mac, sizeof(auth.mac));
-    return n + static_cast<int>(sizeof(auth.mac));
-  }
-};
 
 constexpr int64_t kT0 = 1'800'000'000 * kSecond;
 

@@ -101,6 +101,20 @@ TEST_F(KeyFile, KeygenTool) {
   ASSERT_EQ(std::system((bin + path("robot.key") + " --force >/dev/null").c_str()), 0);
   EXPECT_NE(sec::load_key(path("robot.key")).bytes, before);
   EXPECT_EQ(WEXITSTATUS(std::system((bin + "2>/dev/null").c_str())), 2);
+  // --keep leaves a valid key of the asked kind alone, refuses another kind.
+  const auto sim_before = sec::load_key(path("sim.key")).bytes;
+  ASSERT_EQ(std::system((bin + path("sim.key") + " --sim --keep >/dev/null").c_str()), 0);
+  EXPECT_EQ(sec::load_key(path("sim.key")).bytes, sim_before);
+  EXPECT_EQ(WEXITSTATUS(std::system((bin + path("sim.key") + " --keep 2>/dev/null").c_str())), 1);
+  ASSERT_EQ(std::system((bin + path("new.key") + " --sim --keep >/dev/null").c_str()), 0);
+  EXPECT_EQ(sec::load_key(path("new.key")).kind, sec::KeyKind::sim);
+  EXPECT_EQ(WEXITSTATUS(std::system((bin + path("x.key") + " --keep --force 2>/dev/null").c_str())), 2);
+}
+
+TEST(SimKey, TheBuildMakesOne) {
+  // build/sim.key, made by the build for the simulator sets and tests.
+  const auto k = sec::load_key(std::string(HARVEST_BIN_DIR) + "/../sim.key");
+  EXPECT_EQ(k.kind, sec::KeyKind::sim);
 }
 
 }  // namespace
