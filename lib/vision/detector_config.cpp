@@ -8,8 +8,16 @@ namespace harvest::vision {
 
 DetectorConfig DetectorConfig::thesis() { return {}; }
 
+DetectorConfig DetectorConfig::learned_mode(const std::filesystem::path& model) {
+  DetectorConfig c;
+  c.mode = Mode::learned;
+  c.learned.model = model;
+  return c;
+}
+
 DetectorConfig DetectorConfig::canopy() {
   DetectorConfig c;
+  c.mode = Mode::canopy;
   c.open_radius_px = 1;
   c.close_radius_px = 2;
   c.fill_holes = true;
@@ -22,8 +30,20 @@ DetectorConfig DetectorConfig::canopy() {
 }
 
 DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
-  const std::string mode = n.choice("mode", "canopy", {"thesis", "canopy"});
+  const std::string mode = n.choice("mode", "canopy", {"thesis", "canopy", "learned"});
   DetectorConfig c = mode == "thesis" ? thesis() : canopy();
+  if (mode == "learned") {
+    c.mode = Mode::learned;
+    c.learned.model = n.file_path("model", "config/vision/models/fruit_net.onnx");
+    c.learned.input_width = n.get("input_width", c.learned.input_width, {16, 4096});
+    c.learned.threshold = n.get("threshold", c.learned.threshold, {0.01, 1.0});
+    // Load it now: a bad file is an error at start (and for --check-config), not at the first frame.
+    try {
+      LearnedDetector check(c.learned);
+    } catch (const std::exception& e) {
+      n.fail("model", std::string("a loadable fruit network (") + e.what() + ")");
+    }
+  }
   const config::Range<double> any{-1000, 1000};
   auto& t = c.thresholds;
   t.cr_min = n.get("cr_min", t.cr_min, any);

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "vision/learned_detector.hpp"
 #include "vision/segmentation.hpp"
 
 namespace harvest::config {
@@ -15,6 +16,10 @@ class Node;
 namespace harvest::vision {
 
 struct DetectorConfig {
+  enum class Mode { thesis, canopy, learned };
+  Mode mode = Mode::thesis;
+  LearnedConfig learned;  // mode learned only: the colour keys below are then unused
+
   ColorThresholds thresholds;
   int64_t min_area_px = 50;          // regions keep area > min_area_px (thesis MinRegionArea)
   double fruit_diameter_m = 0.0725;  // statistical mean fruit diameter D_o
@@ -38,10 +43,13 @@ struct DetectorConfig {
   bool circle_fit = false;
   double min_visible_fraction = 0.3;  // below this the circle fit is not trusted
 
-  // mode "thesis": every improvement off; "canopy": all on.
+  // mode "thesis": every improvement off; "canopy": all on; "learned": the
+  // network of learned_detector.hpp (size, depth and cost as the others).
   static DetectorConfig thesis();
   static DetectorConfig canopy();
-  // Reads the keys documented in docs/perception.md; throws config::Error.
+  static DetectorConfig learned_mode(const std::filesystem::path& model);
+  // Reads the keys documented in docs/perception.md; throws config::Error
+  // (in mode learned also for a model file that does not load, naming it).
   static DetectorConfig from_yaml(const config::Node& node);
 };
 

@@ -24,6 +24,12 @@ FruitDetector::FruitDetector(const DetectorConfig& config, double fx, double fy)
     : config_(config), fx_(fx), fy_(fy), splitter_(config) {
   if (config_.open_radius_px > 0) open_kernel_ = disc_kernel(config_.open_radius_px);
   if (config_.close_radius_px > 0) close_kernel_ = disc_kernel(config_.close_radius_px);
+  if (config_.mode == DetectorConfig::Mode::learned) learned_ = std::make_shared<LearnedDetector>(config_.learned);
+}
+
+void FruitDetector::finish(Fruit& f, cv::Size image) const {
+  f.depth_m = depth_from_diameter(fx_, fy_, config_.fruit_diameter_m, f.diameter_px);
+  f.cost = config_.kr * (image.width / (0.5 * f.diameter_px) - 1.0) + config_.kd_per_m * f.depth_m;
 }
 void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Fruit>& out) const {
   if (piece.area <= static_cast<double>(config_.min_area_px) || piece.area <= 0 || piece.contour.empty()) return;
@@ -82,18 +88,31 @@ void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Frui
       std::clamp(0.4 * std::min(1.0, f.roundness / 0.8) + 0.3 * f.solidity + 0.3 * f.visible_fraction, 0.0, 1.0);
   f.outline.reserve(contour.size());
   for (const cv::Point& p : contour) f.outline.push_back(p + offset);
-  f.depth_m = depth_from_diameter(fx_, fy_, config_.fruit_diameter_m, f.diameter_px);
-  f.cost = config_.kr * (image.width / (0.5 * f.diameter_px) - 1.0) + config_.kd_per_m * f.depth_m;
+  finish(f, image);
   out.push_back(std::move(f));
 }
 
 Detections FruitDetector::detect(const cv::Mat3b& bgr) {
+  Detections out;
+  if (learned_) {
+    out.fruits = learned_->detect(bgr);
+    for (Fruit& f : out.fruits) finish(f, bgr.size());
+  } else {
+    detect_colour(bgr, out);
+  }
+  for (std::size_t i = 0; i < out.fruits.size(); ++i)
+    if (out.selected < 0 || out.fruits[i].cost < out.fruits[static_cast<std::size_t>(out.selected)].cost)
+      out.selected = static_cast<int>(i);
+  if (out.selected >= 0) out.fruits[static_cast<std::size_t>(out.selected)].selected = true;
+  return out;
+}
+
+void FruitDetector::detect_colour(const cv::Mat3b& bgr, Detections& out) {
   mask_.create(bgr.size());
   threshold_crcgcb(bgr.data, bgr.cols, bgr.rows, bgr.step, config_.thresholds, mask_.data, mask_.step);
   if (!open_kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_OPEN, open_kernel_);
   if (!close_kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_CLOSE, close_kernel_);
 
-  Detections out;
   const auto& regions = labeler_.label(mask_, config_.min_area_px);
   // Merging needs every piece first; otherwise each region is done at once.
   const bool merging = config_.merge_fragments && config_.circle_fit;
@@ -110,11 +129,6 @@ Detections FruitDetector::detect(const cv::Mat3b& bgr) {
     splitter_.merge_fragments(pieces, bgr);
     for (const Piece& p : pieces) analyse(p, bgr.size(), out.fruits);
   }
-  for (std::size_t i = 0; i < out.fruits.size(); ++i)
-    if (out.selected < 0 || out.fruits[i].cost < out.fruits[static_cast<std::size_t>(out.selected)].cost)
-      out.selected = static_cast<int>(i);
-  if (out.selected >= 0) out.fruits[static_cast<std::size_t>(out.selected)].selected = true;
-  return out;
 }
 
 }  // namespace harvest::vision

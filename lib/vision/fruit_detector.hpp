@@ -7,6 +7,9 @@
 // (its image width); using the actual width keeps the cost independent of
 // the image size and equal to the thesis's for 320-pixel images.
 //
+// Mode learned (learned_detector.hpp) replaces the colour steps by a network;
+// depth, cost and selection stay as here.
+//
 // Improvements for a real canopy, each switchable (DetectorConfig): mask
 // clean-up (opening, closing, hole filling), splitting of touching fruit
 // (distance-transform peaks), cutting off slivers of other fruit that stick
@@ -18,6 +21,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -63,6 +67,8 @@ class FruitDetector {
 
  private:
   void analyse(const Piece& piece, cv::Size image, std::vector<Fruit>& out) const;
+  void detect_colour(const cv::Mat3b& bgr, Detections& out);
+  void finish(Fruit& f, cv::Size image) const;  // depth and selection cost
 
   DetectorConfig config_;
   double fx_, fy_;
@@ -70,6 +76,7 @@ class FruitDetector {
   cv::Mat open_kernel_, close_kernel_;
   RegionLabeler labeler_;
   RegionSplitter splitter_;
+  std::shared_ptr<LearnedDetector> learned_;  // mode learned only
 };
 
 }  // namespace harvest::vision

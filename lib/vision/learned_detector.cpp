@@ -1,0 +1,136 @@
+#include "vision/learned_detector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "vision/fruit_detector.hpp"
+
+namespace harvest::vision {
+
+namespace {
+
+std::runtime_error model_error(const std::filesystem::path& file, const std::string& what) {
+  return std::runtime_error("learned detector model " + file.string() + ": " + what);
+}
+
+float at(const cv::Mat& maps, int c, int y, int x) { return maps.ptr<float>(0, c, y)[x]; }
+
+double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+}  // namespace
+
+LearnedDetector::LearnedDetector(const LearnedConfig& config) : config_(config) {
+  const auto& file = config_.model;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) throw model_error(file, "no such file");
+  try {
+    net_ = cv::dnn::readNetFromONNX(file.string());
+  } catch (const cv::Exception& e) {
+    throw model_error(file, std::string("not a model OpenCV can load (") + e.err + ")");
+  }
+  if (net_.empty()) throw model_error(file, "not a model OpenCV can load (empty network)");
+  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  // One thread: the same sums in the same order every run, so a replayed log
+  // gives byte-identical detections (and one core is what a camera gets).
+  cv::setNumThreads(1);
+  cv::Mat maps;
+  try {
+    maps = forward(cv::Mat3b(64, 64, cv::Vec3b(0, 0, 0)));
+  } catch (const cv::Exception& e) {
+    throw model_error(file, std::string("fails on a 64x64 image (") + e.err + ")");
+  }
+  if (maps.dims != 4 || maps.size[0] != 1 || maps.size[1] != 3 || maps.size[2] != 64 / kStride ||
+      maps.size[3] != 64 / kStride) {
+    std::string shape;
+    for (int i = 0; i < maps.dims; ++i) {
+      if (i > 0) shape += 'x';
+      shape += std::to_string(maps.size[i]);
+    }
+    throw model_error(file, "wrong output shape " + shape + " for a 64x64 image, expected 1x3x16x16");
+  }
+}
+
+cv::Mat LearnedDetector::forward(const cv::Mat3b& bgr) {
+  // RGB scaled to [-1, 1], as tools/train_detector.py normalise().
+  const cv::Mat blob = cv::dnn::blobFromImage(bgr, 1.0 / 127.5, cv::Size(), cv::Scalar(127.5, 127.5, 127.5), true);
+  net_.setInput(blob);
+  return net_.forward().clone();
+}
+
+std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
+  const int h = maps.size[2], w = maps.size[3];
+  cv::Mat1f heat(h, w);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) heat(y, x) = static_cast<float>(sigmoid(at(maps, 0, y, x)));
+  std::vector<Fruit> out;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float p = heat(y, x);
+      if (p < config_.threshold) continue;
+      bool peak = true;  // a 3x3 maximum (ties keep both, as max_pool == value does)
+      for (int dy = -1; dy <= 1 && peak; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int yy = y + dy, xx = x + dx;
+          if (yy >= 0 && yy < h && xx >= 0 && xx < w && heat(yy, xx) > p) {
+            peak = false;
+            break;
+          }
+        }
+      if (!peak) continue;
+      // Sub-cell centre: heat-weighted mean of the 3x3 neighbourhood.
+      double sw = 0, su = 0, sv = 0;
+      for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, h - 1); ++yy)
+        for (int xx = std::max(x - 1, 0); xx <= std::min(x + 1, w - 1); ++xx) {
+          sw += heat(yy, xx);
+          su += heat(yy, xx) * xx;
+          sv += heat(yy, xx) * yy;
+        }
+      Fruit f;
+      f.u = (su / sw + 0.5) * kStride;
+      f.v = (sv / sw + 0.5) * kStride;
+      f.diameter_px = kDiameterScale * std::exp(static_cast<double>(at(maps, 1, y, x)));
+      f.confidence = p;
+      // Visible fraction: mean mask probability over the cells of the fruit's disc.
+      const double r = 0.5 * f.diameter_px / kStride;
+      double in = 0, n = 0;
+      for (int yy = std::max(0, int(std::floor(y - r))); yy <= std::min(h - 1, int(std::ceil(y + r))); ++yy)
+        for (int xx = std::max(0, int(std::floor(x - r))); xx <= std::min(w - 1, int(std::ceil(x + r))); ++xx)
+          if ((xx - x) * (xx - x) + (yy - y) * (yy - y) <= r * r) {
+            in += sigmoid(at(maps, 2, yy, xx));
+            n += 1;
+          }
+      f.visible_fraction = n > 0 ? in / n : 0.0;
+      out.push_back(f);
+    }
+  return out;
+}
+
+std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
+  // Scale to the training width; both sides a multiple of the stride.
+  const double s = static_cast<double>(config_.input_width) / bgr.cols;
+  const int w = std::max(kStride, config_.input_width / kStride * kStride);
+  const int h = std::max(kStride, static_cast<int>(std::lround(bgr.rows * s)) / kStride * kStride);
+  cv::Mat3b in;
+  cv::resize(bgr, in, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);
+  std::vector<Fruit> fruits = decode(forward(in));
+  const double sx = static_cast<double>(bgr.cols) / w, sy = static_cast<double>(bgr.rows) / h;
+  for (Fruit& f : fruits) {
+    f.u *= sx;
+    f.v *= sy;
+    f.diameter_x_px = f.diameter_px * sx;
+    f.diameter_y_px = f.diameter_px * sy;
+    f.diameter_px = 0.5 * (f.diameter_x_px + f.diameter_y_px);
+    f.area_px = std::numbers::pi * 0.25 * f.diameter_x_px * f.diameter_y_px;
+    f.roundness = 1.0;
+    f.solidity = 1.0;
+    f.bbox = cv::Rect(cv::Point(cvRound(f.u - 0.5 * f.diameter_x_px), cvRound(f.v - 0.5 * f.diameter_y_px)),
+                      cv::Size(cvRound(f.diameter_x_px), cvRound(f.diameter_y_px)));
+  }
+  return fruits;
+}
+
+}  // namespace harvest::vision

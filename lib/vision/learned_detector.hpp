@@ -1,0 +1,50 @@
+// Learned fruit detector (detector mode "learned", docs/perception.md): a
+// small fully convolutional network (tools/train_detector.py) run through
+// OpenCV dnn from an ONNX file. It maps the image, scaled to a fixed width,
+// to three maps at 1/4 resolution: fruit-centre heatmap, log fruit diameter
+// and fruit mask. Fruits are the heatmap's 3x3 maxima above a threshold.
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/dnn.hpp>
+#include <string>
+#include <vector>
+
+namespace harvest::vision {
+
+struct Fruit;
+
+struct LearnedConfig {
+  std::filesystem::path model;  // ONNX file
+  int input_width = 320;        // frames are scaled to this width (the training scale)
+  double threshold = 0.3;       // heatmap peaks below this are not fruit
+};
+
+class LearnedDetector {
+ public:
+  static constexpr int kStride = 4;             // output cell size in input pixels
+  static constexpr double kDiameterScale = 32;  // diameter channel is log(d / kDiameterScale)
+
+  // Loads and checks the model (one trial forward pass: 3 output maps at 1/4
+  // resolution). Throws std::runtime_error naming the file and what is wrong.
+  explicit LearnedDetector(const LearnedConfig& config);
+
+  // Fruits in image pixels: centre, diameter_px, bbox, visible_fraction (the
+  // mask's share of the fruit's disc) and confidence (the peak). Depth and
+  // cost are the caller's (FruitDetector), as for the colour modes.
+  std::vector<Fruit> detect(const cv::Mat3b& bgr);
+
+  // The raw network output (1x3xH/4xW/4) for an input already at the
+  // network's size (parity test with PyTorch).
+  cv::Mat forward(const cv::Mat3b& bgr);
+
+  // Peaks of raw maps -> fruits in network-input pixels.
+  std::vector<Fruit> decode(const cv::Mat& maps) const;
+
+ private:
+  LearnedConfig config_;
+  cv::dnn::Net net_;
+};
+
+}  // namespace harvest::vision

@@ -1,0 +1,192 @@
+// Learned detector mode: the committed ONNX model loads in OpenCV dnn, gives
+// the PyTorch output on the same input, detects rendered fruit where they
+// are, repeats itself exactly, and a bad model file is refused at start with
+// an error naming it.
+#include "vision/learned_detector.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "config/config.hpp"
+#include "synthetic_scene.hpp"
+#include "test_support.hpp"
+#include "vision/fruit_detector.hpp"
+
+namespace ht = harvest::testing;
+
+namespace harvest::vision {
+namespace {
+
+const char* kModel = "config/vision/models/fruit_net.onnx";
+const char* kData = "tests/unit/vision/data/";
+constexpr double kFx = 833.57, kFy = 767.02;  // config/cameras/fixed.yaml at 640x480
+
+LearnedConfig model(const std::filesystem::path& file) {
+  LearnedConfig c;
+  c.model = file;
+  return c;
+}
+
+std::string load_error(const std::filesystem::path& file) {
+  try {
+    LearnedDetector d(model(file));
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A leafy frame with shaded oranges (light from the upper left) at known places.
+struct Truth {
+  double u, v, d;
+};
+cv::Mat3b orchard_frame(const std::vector<Truth>& fruits, int width = 640, int height = 480) {
+  cv::Mat3b img(height, width);
+  cv::RNG rng(19);
+  rng.fill(img, cv::RNG::UNIFORM, cv::Scalar(20, 70, 30), cv::Scalar(70, 150, 90));
+  cv::GaussianBlur(img, img, {7, 7}, 2);
+  for (const Truth& f : fruits) {
+    const double r = f.d / 2;
+    for (int y = std::max(0, int(f.v - r)); y < std::min(height, int(f.v + r) + 1); ++y)
+      for (int x = std::max(0, int(f.u - r)); x < std::min(width, int(f.u + r) + 1); ++x) {
+        const double dx = (x - f.u) / r, dy = (y - f.v) / r;
+        if (dx * dx + dy * dy > 1) continue;
+        const double shade = 0.65 + 0.35 * std::max(0.0, 1 - std::hypot(dx + 0.4, dy + 0.4));
+        img(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(20 * shade), cv::saturate_cast<uchar>(140 * shade),
+                              cv::saturate_cast<uchar>(250 * shade));
+      }
+  }
+  return img;
+}
+
+TEST(LearnedDetector, CommittedModelLoadsAndGivesQuarterResolutionMaps) {
+  LearnedDetector det(model(kModel));
+  const cv::Mat maps = det.forward(cv::Mat3b(240, 320, cv::Vec3b(50, 100, 60)));
+  ASSERT_EQ(maps.dims, 4);
+  EXPECT_EQ(maps.size[1], 3);
+  EXPECT_EQ(maps.size[2], 60);
+  EXPECT_EQ(maps.size[3], 80);
+}
+
+// tools/fruit_net_parity.py ran the same ONNX weights in PyTorch on this image.
+TEST(LearnedDetector, OutputEqualsPyTorchWithin1e4) {
+  const cv::Mat3b img = cv::imread(std::string(kData) + "fruit_net_parity.png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  std::ifstream in(std::string(kData) + "fruit_net_parity.txt");
+  int n, c, h, w;
+  ASSERT_TRUE(in >> n >> c >> h >> w);
+  LearnedDetector det(model(kModel));
+  const cv::Mat maps = det.forward(img);
+  ASSERT_EQ(maps.total(), static_cast<std::size_t>(n) * c * h * w);
+  ASSERT_EQ(maps.size[2], h);
+  ASSERT_EQ(maps.size[3], w);
+  const float* got = maps.ptr<float>();
+  double worst = 0;
+  for (std::size_t i = 0; i < maps.total(); ++i) {
+    double want;
+    ASSERT_TRUE(in >> want) << i;
+    worst = std::max(worst, std::abs(got[i] - want));
+  }
+  EXPECT_LT(worst, 1e-4);
+  // The test can fail: a one-cell shift of the image changes the output far beyond it.
+  cv::Mat3b shifted;
+  cv::copyMakeBorder(img.colRange(0, img.cols - 4), shifted, 0, 0, 4, 0, cv::BORDER_REPLICATE);
+  const cv::Mat other = det.forward(shifted);
+  EXPECT_GT(cv::norm(other, maps, cv::NORM_INF), 1e-2);
+}
+
+TEST(LearnedDetector, FindsRenderedFruitWithDiameterAndDepth) {
+  const std::vector<Truth> truth{{200, 200, 110}, {450, 300, 80}};
+  FruitDetector det(DetectorConfig::learned_mode(kModel), kFx, kFy);
+  const Detections d = det.detect(orchard_frame(truth));
+  for (const Truth& t : truth) {
+    const Fruit* best = nullptr;
+    for (const Fruit& f : d.fruits)
+      if (!best || std::hypot(f.u - t.u, f.v - t.v) < std::hypot(best->u - t.u, best->v - t.v)) best = &f;
+    ASSERT_NE(best, nullptr);
+    EXPECT_LT(std::hypot(best->u - t.u, best->v - t.v), 0.2 * t.d) << t.u << "," << t.v;
+    EXPECT_NEAR(best->diameter_px, t.d, 0.3 * t.d) << t.u << "," << t.v;
+    EXPECT_NEAR(best->depth_m, 0.5 * (kFx + kFy) * 0.0725 / best->diameter_px, 1e-9);
+    EXPECT_GT(best->visible_fraction, 0.3);
+  }
+  EXPECT_GE(d.selected, 0);
+}
+
+TEST(LearnedDetector, NoFruitOnPlainLeaves) {
+  FruitDetector det(DetectorConfig::learned_mode(kModel), kFx, kFy);
+  EXPECT_TRUE(det.detect(orchard_frame({})).fruits.empty());
+}
+
+// Replay depends on it: two detectors on one frame give the same bytes.
+TEST(LearnedDetector, RepeatsItselfExactly) {
+  const cv::Mat3b img = orchard_frame({{200, 200, 110}, {450, 300, 80}, {600, 50, 60}});
+  FruitDetector a(DetectorConfig::learned_mode(kModel), kFx, kFy);
+  FruitDetector b(DetectorConfig::learned_mode(kModel), kFx, kFy);
+  const Detections da = a.detect(img), db = b.detect(img), da2 = a.detect(img);
+  ASSERT_EQ(da.fruits.size(), db.fruits.size());
+  ASSERT_EQ(da.fruits.size(), da2.fruits.size());
+  for (std::size_t i = 0; i < da.fruits.size(); ++i)
+    for (const auto* o : {&db.fruits[i], &da2.fruits[i]}) {
+      EXPECT_EQ(std::memcmp(&da.fruits[i].u, &o->u, sizeof(double)), 0);
+      EXPECT_EQ(std::memcmp(&da.fruits[i].v, &o->v, sizeof(double)), 0);
+      EXPECT_EQ(std::memcmp(&da.fruits[i].diameter_px, &o->diameter_px, sizeof(double)), 0);
+      EXPECT_EQ(std::memcmp(&da.fruits[i].visible_fraction, &o->visible_fraction, sizeof(double)), 0);
+    }
+}
+
+TEST(LearnedDetector, BadModelFilesAreRefusedNamingTheFile) {
+  ht::TempDir tmp;
+  const auto missing = tmp / "nothere.onnx";
+  std::string e = load_error(missing);
+  EXPECT_NE(e.find(missing.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("no such file"), std::string::npos) << e;
+
+  const auto corrupt = tmp / "corrupt.onnx";
+  {
+    std::ifstream good(kModel, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(good)), {});
+    ASSERT_GT(bytes.size(), 1000u);
+    std::ofstream(corrupt, std::ios::binary) << bytes.substr(0, bytes.size() / 3);  // cut off mid-weights
+  }
+  e = load_error(corrupt);
+  EXPECT_NE(e.find(corrupt.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("not a model OpenCV can load"), std::string::npos) << e;
+
+  const auto text = tmp / "text.onnx";
+  std::ofstream(text) << "this is not a network\n";
+  e = load_error(text);
+  EXPECT_NE(e.find(text.string()), std::string::npos) << e;
+
+  const std::string wrong = std::string(kData) + "wrong_shape.onnx";
+  e = load_error(wrong);
+  EXPECT_NE(e.find(wrong), std::string::npos) << e;
+  EXPECT_NE(e.find("wrong output shape 1x2x64x64"), std::string::npos) << e;
+}
+
+// The configuration loads the model, so --check-config and a start fail on a bad file (exit 2).
+TEST(LearnedDetector, ConfigurationRefusesBadModelNamingKeyAndFile) {
+  ht::TempDir tmp;
+  const auto yaml = tmp / "detector.yaml";
+  std::ofstream(yaml) << "mode: learned\nmodel: missing.onnx\n";
+  auto doc = config::Document::load_file(yaml);
+  try {
+    DetectorConfig::from_yaml(doc.root());
+    FAIL() << "accepted a missing model";
+  } catch (const config::Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("model"), std::string::npos) << what;
+    EXPECT_NE(what.find((tmp / "missing.onnx").string()), std::string::npos) << what;
+  }
+  std::ofstream(yaml) << "mode: learned\nmodel: " << std::filesystem::absolute(kModel).string()
+                      << "\ninput_width: 320\nthreshold: 0.3\n";
+  auto good = config::Document::load_file(yaml);
+  const DetectorConfig c = DetectorConfig::from_yaml(good.root());
+  EXPECT_EQ(c.mode, DetectorConfig::Mode::learned);
+  EXPECT_EQ(c.learned.input_width, 320);
+}
+
+}  // namespace
+}  // namespace harvest::vision

@@ -1,0 +1,283 @@
+#!/usr/bin/python3
+"""Trains the learned fruit detector (docs/perception.md, "Learned mode").
+
+A small fully convolutional net, trained from scratch (no pretrained weights
+exist here), maps an RGB image to three maps at 1/4 resolution: fruit-centre
+heatmap (logit), log fruit diameter, fruit mask (logit). lib/vision/
+learned_detector.cpp decodes them the same way as decode() below.
+
+Data: the DeepFruits orange photos (CC BY 4.0 via deepNIR) given by --data;
+never copied into the repository. Images are scaled to --width pixels wide
+(the detector does the same at run time), augmented heavily (scale, crop,
+flip, colour jitter): 45 photos are little data.
+
+  nice -n 19 /usr/bin/python3 tools/train_detector.py --data ../shared/data/deepfruits-orange \
+      --folds 3 --out config/vision/models/fruit_net.onnx
+
+With --folds k it first trains k models, each scored only on the photos it
+did not see (folds fixed by a seeded shuffle), prints the cross-validated
+figures and writes the fold models next to --out (fruit_net.fold<i>.onnx,
+for harvest-detect --evaluate --fold-models); then trains the final model on
+all photos. Hyper-parameters were chosen before any fold was scored and are
+not tuned on them (the decode threshold is fixed at 0.3).
+"""
+import argparse
+import csv
+import math
+import os
+import random
+import sys
+import time
+
+import numpy as np
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+from PIL import Image
+
+STRIDE = 4
+DIAM_SCALE = 32.0  # diameter channel is log(d / DIAM_SCALE), d in input pixels
+
+
+class FruitNet(nn.Module):
+    """Two stride-2 convolutions to 1/4 resolution, then dilated convolutions
+    (receptive field ~ 140 px, a whole fruit at --width 320) and a 1x1 head."""
+
+    def __init__(self, c=32):
+        super().__init__()
+
+        def block(i, o, s=1, d=1):
+            return [nn.Conv2d(i, o, 3, s, d, dilation=d, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
+
+        layers = block(3, 16, 2) + block(16, 24, 2) + block(24, c) + block(c, c, d=2) + block(c, c, d=4)
+        layers += block(c, c, d=8) + block(c, c, d=1)
+        self.body = nn.Sequential(*layers)
+        self.head = nn.Conv2d(c, 3, 1)
+        self.head.bias.data[0] = -4.0  # centres are rare: start the heatmap near 0
+
+    def forward(self, x):
+        return self.head(self.body(x))
+
+
+def normalise(rgb_u8):
+    """uint8 HxWx3 RGB -> float tensor 3xHxW in [-1, 1] (the C++ side: scale 1/127.5, mean 127.5)."""
+    return torch.from_numpy(rgb_u8.astype(np.float32) / 127.5 - 1.0).permute(2, 0, 1)
+
+
+def load(data, width):
+    rows = {}
+    with open(os.path.join(data, "boxes.csv")) as f:
+        for r in csv.DictReader(f):
+            rows.setdefault(r["image"], []).append([float(r[k]) for k in ("x1", "y1", "x2", "y2")])
+    items = []
+    for name in sorted(rows):
+        im = Image.open(os.path.join(data, "images", name)).convert("RGB")
+        s = width / im.width
+        h = int(round(im.height * s))
+        im = im.resize((width, h), Image.BILINEAR)
+        items.append((name, np.asarray(im), np.array(rows[name]) * s))
+    return items
+
+
+def targets(h, w, boxes):
+    """Heatmap (Gaussian per centre), log-diameter and its weight, mask, all at 1/4 resolution."""
+    H, W = h // STRIDE, w // STRIDE
+    heat = np.zeros((H, W), np.float32)
+    diam = np.zeros((H, W), np.float32)
+    wdiam = np.zeros((H, W), np.float32)
+    mask = np.zeros((H, W), np.float32)
+    ys, xs = np.mgrid[0:H, 0:W].astype(np.float32)
+    xs, ys = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE  # cell centres in input pixels
+    for x1, y1, x2, y2 in boxes:
+        cx, cy, bw, bh = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
+        if bw < 2 or bh < 2:
+            continue
+        d = (bw + bh) / 2
+        sigma = max(STRIDE * 0.75, d / 8)
+        g = np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma**2))
+        heat = np.maximum(heat, g)
+        near = g > 0.3
+        diam[near] = math.log(d / DIAM_SCALE)
+        wdiam[near] = np.maximum(wdiam[near], g[near])
+        inside = ((xs - cx) / (bw / 2)) ** 2 + ((ys - cy) / (bh / 2)) ** 2 <= 1
+        mask[inside] = 1
+    return heat, diam, wdiam, mask
+
+
+def jitter(img, rng):
+    img = img.astype(np.float32)
+    gray = img.mean(axis=2, keepdims=True)
+    img = gray + (img - gray) * rng.uniform(0.6, 1.4)  # saturation
+    img = (img - img.mean()) * rng.uniform(0.7, 1.3) + img.mean()  # contrast
+    img = img * rng.uniform(0.6, 1.4) * rng.uniform(0.9, 1.1, size=3)  # brightness, white balance
+    img += rng.normal(0, rng.uniform(0, 6), img.shape)  # sensor noise
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def sample(item, crop, rng):
+    _, img, boxes = item
+    s = rng.uniform(0.6, 1.6)
+    h, w = img.shape[:2]
+    nw, nh = max(crop, int(w * s)), max(crop, int(h * s))
+    s_x, s_y = nw / w, nh / h
+    im = np.asarray(Image.fromarray(img).resize((nw, nh), Image.BILINEAR))
+    b = boxes * np.array([s_x, s_y, s_x, s_y])
+    x0, y0 = rng.integers(0, nw - crop + 1), rng.integers(0, nh - crop + 1)
+    im = im[y0 : y0 + crop, x0 : x0 + crop]
+    b = b - np.array([x0, y0, x0, y0])
+    if rng.random() < 0.5:
+        im = im[:, ::-1]
+        b = np.stack([crop - b[:, 2], b[:, 1], crop - b[:, 0], b[:, 3]], axis=1)
+    # keep boxes whose centre lies in the crop (a cut fruit keeps its full-size box: the diameter is the fruit's)
+    c = (b[:, :2] + b[:, 2:]) / 2
+    b = b[(c[:, 0] >= 0) & (c[:, 0] < crop) & (c[:, 1] >= 0) & (c[:, 1] < crop)]
+    return jitter(np.ascontiguousarray(im), rng), b
+
+
+def focal(logit, heat):
+    p = torch.sigmoid(logit).clamp(1e-4, 1 - 1e-4)
+    pos = heat.eq(1).float() + (heat > 0.95).float() * (1 - heat.eq(1).float())
+    neg = 1 - pos
+    lp = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
+    ln = -(torch.log(1 - p) * p**2 * (1 - heat) ** 4 * neg).sum()
+    return (lp + ln) / pos.sum().clamp(min=1)
+
+
+def train(items, steps, seed, crop=160, batch=12, log=print):
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    net = FruitNet()
+    opt = torch.optim.AdamW(net.parameters(), lr=3e-3, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=3e-3, total_steps=steps, pct_start=0.1)
+    net.train()
+    t0 = time.time()
+    for step in range(steps):
+        xs, ts = [], []
+        for _ in range(batch):
+            im, b = sample(items[rng.integers(len(items))], crop, rng)
+            xs.append(normalise(im))
+            ts.append([torch.from_numpy(t) for t in targets(crop, crop, b)])
+        x = torch.stack(xs)
+        heat, diam, wd, mask = (torch.stack([t[i] for t in ts]) for i in range(4))
+        out = net(x)
+        lh = focal(out[:, 0], heat)
+        ld = (F.smooth_l1_loss(out[:, 1], diam, reduction="none", beta=0.1) * wd).sum() / wd.sum().clamp(min=1)
+        lm = F.binary_cross_entropy_with_logits(out[:, 2], mask)
+        loss = lh + 2 * ld + lm
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+        if step % 100 == 0 or step == steps - 1:
+            log(f"  step {step:5d} loss {loss.item():.3f} (heat {lh.item():.3f} diam {ld.item():.3f} "
+                f"mask {lm.item():.3f}) {time.time() - t0:.0f} s")
+    net.eval()
+    return net
+
+
+def decode(out, threshold=0.3):
+    """Peaks of the heatmap above threshold (3x3 maximum) -> [(u, v, d, score)] in input pixels.
+    Same rules as LearnedDetector::decode (C++)."""
+    heat = torch.sigmoid(out[0])
+    peak = F.max_pool2d(heat[None, None], 3, 1, 1)[0, 0]
+    res = []
+    for y, x in zip(*torch.nonzero((heat == peak) & (heat >= threshold), as_tuple=True)):
+        y, x = int(y), int(x)
+        y0, y1, x0, x1 = max(y - 1, 0), min(y + 2, heat.shape[0]), max(x - 1, 0), min(x + 2, heat.shape[1])
+        w = heat[y0:y1, x0:x1]
+        gy, gx = torch.meshgrid(torch.arange(y0, y1).float(), torch.arange(x0, x1).float(), indexing="ij")
+        u = float((w * gx).sum() / w.sum() + 0.5) * STRIDE
+        v = float((w * gy).sum() / w.sum() + 0.5) * STRIDE
+        res.append((u, v, DIAM_SCALE * math.exp(float(out[1, y, x])), float(heat[y, x])))
+    return res
+
+
+def match(dets, boxes):
+    """Greedy one-to-one: a detection matches a box containing its centre (as box_evaluation.cpp does,
+    centre-inside pairs first; the IoU alternative is left to harvest-detect --evaluate)."""
+    used, pairs = set(), []
+    for i, (u, v, d, s) in sorted(enumerate(dets), key=lambda e: -e[1][3]):
+        best, bd = -1, 1e18
+        for j, (x1, y1, x2, y2) in enumerate(boxes):
+            if j in used or not (x1 <= u <= x2 and y1 <= v <= y2):
+                continue
+            dd = (u - (x1 + x2) / 2) ** 2 + (v - (y1 + y2) / 2) ** 2
+            if dd < bd:
+                best, bd = j, dd
+        if best >= 0:
+            used.add(best)
+            pairs.append((i, best))
+    return pairs
+
+
+def pad4(img):
+    h, w = img.shape[:2]
+    return img[: h - h % STRIDE, : w - w % STRIDE]
+
+
+def score(net, items):
+    tp = nd = nb = 0
+    cerr, derr = [], []
+    with torch.no_grad():
+        for _, img, boxes in items:
+            img = pad4(img)
+            dets = decode(net(normalise(img)[None])[0])
+            pairs = match(dets, boxes)
+            tp, nd, nb = tp + len(pairs), nd + len(dets), nb + len(boxes)
+            for i, j in pairs:
+                x1, y1, x2, y2 = boxes[j]
+                u, v, d, _ = dets[i]
+                bd = (x2 - x1 + y2 - y1) / 2
+                cerr.append(math.hypot(u - (x1 + x2) / 2, v - (y1 + y2) / 2) / bd)
+                derr.append(abs(d - bd) / bd)
+    return tp, nd, nb, cerr, derr
+
+
+def export(net, path):
+    net.eval()
+    torch.onnx.export(net, torch.zeros(1, 3, 240, 320), path, opset_version=11, input_names=["image"],
+                      output_names=["maps"], dynamic_axes={"image": {2: "h", 3: "w"}, "maps": {2: "h4", 3: "w4"}})
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", required=True, help="folder with boxes.csv and images/")
+    ap.add_argument("--out", required=True, help="ONNX file to write")
+    ap.add_argument("--width", type=int, default=320, help="photos are scaled to this width")
+    ap.add_argument("--steps", type=int, default=1500)
+    ap.add_argument("--folds", type=int, default=0, help="k-fold cross-validation first (0: none)")
+    ap.add_argument("--seed", type=int, default=19)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--folds-only", action="store_true", help="skip the final model on all photos")
+    a = ap.parse_args()
+    torch.set_num_threads(a.threads)
+    random.seed(a.seed)
+    items = load(a.data, a.width)
+    print(f"{len(items)} photos, {sum(len(b) for _, _, b in items)} boxes, width {a.width}", flush=True)
+    log = lambda s: print(s, flush=True)
+    if a.folds:
+        order = list(range(len(items)))
+        random.Random(a.seed).shuffle(order)
+        tot = [0, 0, 0, [], []]
+        for k in range(a.folds):
+            test = set(order[k :: a.folds])
+            log(f"fold {k}: {len(test)} test photos: " + " ".join(items[i][0] for i in sorted(test)))
+            net = train([it for i, it in enumerate(items) if i not in test], a.steps, a.seed + 1 + k, log=log)
+            export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
+            r = score(net, [items[i] for i in sorted(test)])
+            for i in range(5):
+                tot[i] += r[i]
+            log(f"fold {k}: R {r[0] / max(r[2], 1):.3f} P {r[0] / max(r[1], 1):.3f} ({r[0]} of {r[2]} boxes, {r[1]} detections)")
+        tp, nd, nb, ce, de = tot
+        R, P = tp / nb, tp / max(nd, 1)
+        log(f"cross-validated ({a.folds}-fold): R {R:.3f} P {P:.3f} F1 {2 * R * P / max(R + P, 1e-9):.3f}; "
+            f"centre error median {np.median(ce):.3f} D, diameter error median {np.median(de):.3f} D")
+    if a.folds_only:
+        return
+    net = train(items, a.steps, a.seed, log=log)
+    export(net, a.out)
+    log(f"wrote {a.out} ({os.path.getsize(a.out)} bytes)")
+
+
+if __name__ == "__main__":
+    main()
