@@ -17,7 +17,7 @@ flip, colour jitter): 45 photos are little data.
 With --folds k it first trains k models, each scored only on the photos it
 did not see (folds fixed by a seeded shuffle), prints the cross-validated
 figures and writes the fold models next to --out (fruit_net.fold<i>.onnx,
-for harvest-detect --evaluate --fold-models); then trains the final model on
+and folds.csv, for harvest-detect --evaluate --fold-models); then trains the final model on
 all photos. Hyper-parameters were chosen before any fold was scored and are
 not tuned on them (the decode threshold is fixed at 0.3).
 """
@@ -259,6 +259,12 @@ def main():
         order = list(range(len(items)))
         random.Random(a.seed).shuffle(order)
         tot = [0, 0, 0, [], []]
+        fold_csv = os.path.join(os.path.dirname(os.path.abspath(a.out)), "folds.csv")
+        with open(fold_csv, "w") as f:  # for harvest-detect --evaluate --fold-models
+            f.write("image,model\n")
+            for k in range(a.folds):
+                for i in sorted(order[k :: a.folds]):
+                    f.write(f"{items[i][0]},{os.path.basename(a.out).replace('.onnx', f'.fold{k}.onnx')}\n")
         for k in range(a.folds):
             test = set(order[k :: a.folds])
             log(f"fold {k}: {len(test)} test photos: " + " ".join(items[i][0] for i in sorted(test)))

@@ -1,7 +1,10 @@
 #include "vision/detect_tool.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <ostream>
 #include <stdexcept>
@@ -90,7 +93,34 @@ bool write_overlay(const DetectToolOptions& options, const std::string& path, co
   return written;
 }
 
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 }  // namespace
+
+std::vector<std::pair<std::string, std::filesystem::path>> read_fold_models(const std::filesystem::path& csv) {
+  std::ifstream in(csv);
+  if (!in) throw std::runtime_error("cannot read " + csv.string());
+  std::vector<std::pair<std::string, std::filesystem::path>> out;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (number == 1 || line.empty()) continue;  // header image,model
+    const auto comma = line.find(',');
+    if (comma == std::string::npos || comma == 0 || comma + 1 == line.size())
+      throw std::runtime_error(csv.string() + " line " + std::to_string(number) + ": expected image,model");
+    std::filesystem::path model = line.substr(comma + 1);
+    if (model.is_relative()) model = csv.parent_path() / model;
+    out.emplace_back(line.substr(0, comma), model);
+  }
+  return out;
+}
 
 int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ostream& err) {
   DetectorNodeConfig config;
@@ -102,10 +132,30 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     err << "harvest-detect: " << e.what() << "\n";
     return 2;
   }
+  // Cross-validation: every image is scored by a model trained without it; an image without one is refused.
+  std::map<std::string, std::filesystem::path> fold_model;
+  if (!options.fold_models.empty()) {
+    if (config.detector.mode != DetectorConfig::Mode::learned) {
+      err << "harvest-detect: --fold-models needs detector.mode learned\n";
+      return 2;
+    }
+    try {
+      for (auto& [image, model] : read_fold_models(options.fold_models)) fold_model[image] = model;
+    } catch (const std::exception& e) {
+      err << "harvest-detect: " << e.what() << "\n";
+      return 2;
+    }
+    for (const auto& a : annotated)
+      if (!fold_model.count(a.first)) {
+        err << "harvest-detect: " << options.fold_models.string() << " names no model for " << a.first << "\n";
+        return 2;
+      }
+  }
   const std::filesystem::path dir =
       options.images_dir.empty() ? options.evaluate_csv.parent_path() / "images" : options.images_dir;
   int rc = 0;
   EvalCounts total;
+  std::vector<double> centre_errors, diameter_errors;
   for (const auto& [name, boxes] : annotated) {
     const std::string path = (dir / name).string();
     const cv::Mat img = read_image(path);
@@ -114,10 +164,29 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
       rc = 1;
       continue;
     }
-    const Detections d = detect_file_image(config, img);
+    Detections d;
+    if (!fold_model.empty()) {
+      config.detector.learned.model = fold_model.at(name);
+      try {
+        d = detect_file_image(config, img);
+      } catch (const std::exception& e) {
+        err << "harvest-detect: " << e.what() << "\n";
+        return 2;
+      }
+    } else {
+      d = detect_file_image(config, img);
+    }
     std::vector<DetectionBox> dets;
     for (const Fruit& f : d.fruits) dets.push_back(detection_box(f));
     const std::vector<int> match = match_boxes(dets, boxes);
+    for (std::size_t i = 0; i < match.size(); ++i) {
+      if (match[i] < 0) continue;
+      const BoxF& b = boxes[static_cast<std::size_t>(match[i])];
+      const double side = 0.5 * ((b.x2 - b.x1) + (b.y2 - b.y1));
+      centre_errors.push_back(std::hypot(d.fruits[i].u - 0.5 * (b.x1 + b.x2), d.fruits[i].v - 0.5 * (b.y1 + b.y2)) /
+                              side);
+      diameter_errors.push_back(std::abs(d.fruits[i].diameter_px - side) / side);
+    }
     const int tp = static_cast<int>(std::count_if(match.begin(), match.end(), [](int m) { return m >= 0; }));
     ++total.images;
     total.boxes += static_cast<int>(boxes.size());
@@ -132,9 +201,13 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
       if (!write_overlay(options, path, overlay, err)) rc = 1;
     }
   }
+  const double p = total.precision(), r = total.recall();
+  const double f1 = p + r > 0 ? 2 * p * r / (p + r) : 0.0;
   out << "{\"summary\": {\"images\": " << total.images << ", \"boxes\": " << total.boxes
       << ", \"detections\": " << total.detections << ", \"true_positives\": " << total.true_positives
-      << ", \"precision\": " << number(total.precision(), 4) << ", \"recall\": " << number(total.recall(), 4) << "}}\n";
+      << ", \"precision\": " << number(total.precision(), 4) << ", \"recall\": " << number(total.recall(), 4)
+      << ", \"f1\": " << number(f1, 4) << ", \"centre_error\": " << number(median(centre_errors), 4)
+      << ", \"diameter_error\": " << number(median(diameter_errors), 4) << "}}\n";
   out.flush();
   return rc;
 }

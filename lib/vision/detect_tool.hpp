@@ -20,7 +20,14 @@ struct DetectToolOptions {
   std::vector<std::string> images;
   std::filesystem::path evaluate_csv;  // boxes to score against (evaluation mode); empty: off
   std::filesystem::path images_dir;    // where the CSV's images are; default <csv folder>/images
+  // Cross-validation of mode learned: a CSV "image,model" naming for each
+  // image the ONNX model whose training did not see it (paths relative to
+  // the CSV's folder); written by tools/train_detector.py --folds. Empty: off.
+  std::filesystem::path fold_models;
 };
+
+// Per image of a fold-models CSV, its model. Throws std::runtime_error naming the file and line.
+std::vector<std::pair<std::string, std::filesystem::path>> read_fold_models(const std::filesystem::path& csv);
 
 // {"image": PATH, "width": W, "height": H, "fruits": [{"u", "v", "diameter_px", "depth_m", "confidence", "selected"}]}
 std::string detections_json(const std::string& image, int width, int height, const Detections& d);
@@ -28,7 +35,8 @@ std::string detections_json(const std::string& image, int width, int height, con
 // Evaluation mode (options.evaluate_csv set): one JSON line per annotated
 // image {"image", "width", "height", "boxes", "fruits", "true_positives"},
 // then {"summary": {"images", "boxes", "detections", "true_positives",
-// "precision", "recall"}}. Overlays then also show the annotated boxes
+// "precision", "recall", "f1", "centre_error", "diameter_error"}}, the errors
+// being medians over matched pairs, relative to the box's mean side. Overlays then also show the annotated boxes
 // (green) and mark unmatched detections. Same exit codes as below.
 int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ostream& err);
 

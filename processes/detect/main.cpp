@@ -1,5 +1,6 @@
 // harvest-detect [--config FILE] [--overlay DIR] IMAGE...: offline fruit detection, JSON lines on stdout.
-// harvest-detect --evaluate boxes.csv [--images-dir DIR]: precision and recall against annotated boxes.
+// harvest-detect --evaluate boxes.csv [--images-dir DIR] [--fold-models CSV]: precision and recall against
+// annotated boxes (with --fold-models each image scored by a learned model that did not train on it).
 #include <CLI/CLI.hpp>
 #include <iostream>
 
@@ -16,6 +17,10 @@ int main(int argc, char** argv) {
                               "score against annotated boxes, a CSV image,img_w,img_h,x1,y1,x2,y2 "
                               "(prints precision and recall)");
   app.add_option("--images-dir", images_dir, "folder of the CSV's images (default: <CSV folder>/images)")->needs(eval);
+  std::string fold_models;
+  app.add_option("--fold-models", fold_models,
+                 "cross-validation: CSV image,model naming per image the learned model that did not train on it")
+      ->needs(eval);
   auto* images = app.add_option("images", o.images, "image files");
   images->excludes(eval);
   try {
@@ -27,5 +32,6 @@ int main(int argc, char** argv) {
   o.overlay_dir = overlay;
   o.evaluate_csv = evaluate;
   o.images_dir = images_dir;
+  o.fold_models = fold_models;
   return harvest::vision::run_detect_tool(o, std::cout, std::cerr);
 }

@@ -130,4 +130,46 @@ TEST_F(DetectTool, EvaluationCountsOneToOneMatches) {
   EXPECT_NE(out.find("bad.csv:2"), std::string::npos) << out;
 }
 
+// Cross-validation: every image is scored by the model its fold names; an
+// image with no model, a missing model or a colour mode are refused (exit 2).
+TEST_F(DetectTool, FoldModelsScoreEachImageWithItsOwnModel) {
+  cv::Mat3b a = leaves(320, 240), b = leaves(320, 240);
+  fruit(a, 100, 100, 30);
+  fruit(b, 200, 120, 25);
+  ASSERT_TRUE(cv::imwrite((dir / "a.png").string(), a));
+  ASSERT_TRUE(cv::imwrite((dir / "b.png").string(), b));
+  std::ofstream(dir / "boxes.csv") << "image,img_w,img_h,x1,y1,x2,y2\n"
+                                   << "a.png,320,240,70,70,130,130\n"
+                                   << "b.png,320,240,175,95,225,145\n";
+  const std::string model = std::filesystem::absolute(ht::source_path("config/vision/models/fruit_net.onnx"));
+  std::ofstream(dir / "folds.csv") << "image,model\na.png," << model << "\nb.png,missing.onnx\n";
+  const std::vector<std::string> learned{
+      "--set",        "detector.mode=learned", "--evaluate",   (dir / "boxes.csv").string(),
+      "--images-dir", dir.path().string(),     "--fold-models"};
+  auto with = [&](std::vector<std::string> args, const std::string& folds) {
+    args.push_back((dir / folds).string());
+    return args;
+  };
+  std::string out;
+  EXPECT_EQ(run(with(learned, "folds.csv"), &out), 2) << out;  // b's model does not exist
+  EXPECT_NE(out.find((dir / "missing.onnx").string()), std::string::npos) << out;
+
+  std::ofstream(dir / "short.csv") << "image,model\na.png," << model << "\n";
+  EXPECT_EQ(run(with(learned, "short.csv"), &out), 2) << out;
+  EXPECT_NE(out.find("names no model for b.png"), std::string::npos) << out;
+
+  std::ofstream(dir / "good.csv") << "image,model\na.png," << model << "\nb.png," << model << "\n";
+  EXPECT_EQ(run({"--evaluate", (dir / "boxes.csv").string(), "--images-dir", dir.path().string(), "--fold-models",
+                 (dir / "good.csv").string()},
+                &out),
+            2)
+      << out;  // default mode canopy has no model
+  EXPECT_NE(out.find("needs detector.mode learned"), std::string::npos) << out;
+  EXPECT_EQ(run(with(learned, "good.csv"), &out), 0) << out;
+  const auto summary = lines_starting(out, "{\"summary\": ");
+  ASSERT_EQ(summary.size(), 1u) << out;
+  EXPECT_EQ(numbers_of(summary[0], "images").at(0), 2);
+  EXPECT_EQ(numbers_of(summary[0], "f1").size(), 1u) << summary[0];
+}
+
 }  // namespace
