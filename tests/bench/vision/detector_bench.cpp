@@ -121,6 +121,40 @@ void BM_DetectorCanopyTreeFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_DetectorCanopyTreeFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
+// Mode learned (the committed network) beside thesis mode on the same frames:
+// the 320x240 tree frame; a 640x480 frame run at full resolution
+// (input_width 640) and scaled to the training width 320 first (the default).
+DetectorConfig learned(int input_width) {
+  DetectorConfig cfg = DetectorConfig::learned_mode(HARVEST_FRUIT_NET);
+  cfg.learned.input_width = input_width;
+  return cfg;
+}
+
+void BM_ThesisMode320x240(benchmark::State& state) {
+  const cv::Mat3b img = make_tree_frame();
+  cv::setNumThreads(1);
+  FruitDetector det(DetectorConfig::thesis(), 833.57 / 2, 767.02 / 2);
+  for (auto _ : state) benchmark::DoNotOptimize(det.detect(img).fruits.size());
+}
+BENCHMARK(BM_ThesisMode320x240)->Unit(benchmark::kMicrosecond);
+
+void BM_LearnedMode320x240(benchmark::State& state) {
+  const cv::Mat3b img = make_tree_frame();
+  FruitDetector det(learned(320), 833.57 / 2, 767.02 / 2);
+  std::size_t fruits = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(fruits = det.detect(img).fruits.size());
+  state.counters["fruits"] = static_cast<double>(fruits);
+}
+BENCHMARK(BM_LearnedMode320x240)->Unit(benchmark::kMicrosecond);
+
+// Arg: the width the network runs at.
+void BM_LearnedMode640x480(benchmark::State& state) {
+  const cv::Mat3b img = make_frame();
+  FruitDetector det(learned(static_cast<int>(state.range(0))), 833.57, 767.02);
+  for (auto _ : state) benchmark::DoNotOptimize(det.detect(img).fruits.size());
+}
+BENCHMARK(BM_LearnedMode640x480)->Arg(320)->Arg(640)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();
