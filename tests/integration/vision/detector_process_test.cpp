@@ -185,5 +185,32 @@ TEST_F(DetectorProcess, BadInputGivesAStatusErrorAndTheNextFrameIsDetected) {
   EXPECT_EQ(detector->stop(), 0) << detector->output();
 }
 
+// Mode learned: the model is loaded when the configuration is read, so a bad
+// file stops --check-config (and a start) with exit 2 naming it.
+TEST(DetectorProcessConfig, LearnedModeRefusesABadModelFileAtStart) {
+  ht::TempDir dir;
+  std::ofstream(dir / "bad.onnx") << "not a network";
+  const auto check = [&](const std::string& model) {
+    std::ofstream(dir / "detector.yaml") << "camera: fixed\ncalibration: "
+                                         << ht::source_path("config/cameras/fixed.yaml")
+                                         << "\ndetector: {mode: learned, model: " << model << "}\n";
+    ht::ChildProcess p({ht::bin("harvest-fruit-detector"), "--config", (dir / "detector.yaml").string(),
+                        "--check-config", "--lcm-url", ht::unique_lcm_url(), "--no-netcheck"},
+                       dir / "out.txt");
+    const int rc = p.wait(20s);
+    return std::make_pair(rc, p.output());
+  };
+  auto [bad, bad_out] = check((dir / "bad.onnx").string());
+  EXPECT_EQ(bad, 2) << bad_out;
+  EXPECT_NE(bad_out.find((dir / "bad.onnx").string()), std::string::npos) << bad_out;
+  EXPECT_NE(bad_out.find("detector.model"), std::string::npos) << bad_out;
+  auto [missing, missing_out] = check((dir / "none.onnx").string());
+  EXPECT_EQ(missing, 2) << missing_out;
+  EXPECT_NE(missing_out.find("no such file"), std::string::npos) << missing_out;
+  auto [good, good_out] = check(ht::source_path("config/vision/models/fruit_net.onnx"));
+  EXPECT_EQ(good, 0) << good_out;
+  EXPECT_NE(good_out.find("mode: learned"), std::string::npos) << good_out;
+}
+
 }  // namespace
 }  // namespace harvest::vision
