@@ -87,8 +87,8 @@ TEST(ReplayRegression, ALogReplaysWithItsOwnConfigSnapshots) {
   ht::TempDir dir;
   const auto r = run({ht::bin("harvest-replay"), ht::source_path("logs/exp1-vision.lcmlog")}, dir / "auto.txt");
   EXPECT_NE(r.output.find("nodes from the log's CONFIG snapshots: "), std::string::npos) << r.output;
-  for (const char* node : {"detector-fixed (fruit-detector)", "detector-hand (fruit-detector)",
-                           "reconstructor (reconstructor)"})
+  for (const char* node :
+       {"detector-fixed (fruit-detector)", "detector-hand (fruit-detector)", "reconstructor (reconstructor)"})
     EXPECT_NE(r.output.find(node), std::string::npos) << node << "\n" << r.output;
   EXPECT_NE(r.output.find("not replayable (devices, tools): sim (sim)"), std::string::npos) << r.output;
   for (const char* ch : {"FRUIT_FIXED", "FRUIT_HAND", "TARGETS"})
@@ -155,6 +155,28 @@ TEST(ReplayRegression, TwoReplaysOfTheSameLogAreByteIdentical) {
   EXPECT_EQ(rt::first_difference(la, rt::read_log((dir / "b.lcmlog").string())), std::nullopt);
 }
 
+// Mode learned (OpenCV dnn, one thread) replays byte-identically too.
+TEST(ReplayRegression, LearnedModeReplaysAreByteIdentical) {
+  ht::TempDir dir;
+  std::vector<std::string> nodes = kVisionNodes;
+  for (const char* d : {"detector-fixed", "detector-hand"}) {
+    nodes.push_back("--set");
+    nodes.push_back(std::string("fruit-detector/") + d + ":detector.mode=learned");
+  }
+  auto a = replay(dir, "logs/exp1-vision.lcmlog", nodes, "a.lcmlog");
+  auto b = replay(dir, "logs/exp1-vision.lcmlog", nodes, "b.lcmlog");
+  ASSERT_EQ(a.code, 0) << a.output;
+  ASSERT_EQ(b.code, 0) << b.output;
+  const auto la = rt::read_log((dir / "a.lcmlog").string());
+  EXPECT_GT(la.size(), 10u);
+  EXPECT_EQ(read_bytes(dir / "a.lcmlog"), read_bytes(dir / "b.lcmlog"));
+  EXPECT_EQ(rt::first_difference(la, rt::read_log((dir / "b.lcmlog").string())), std::nullopt);
+  // Not the colour detector's output: the mode did change.
+  auto colour = replay(dir, "logs/exp1-vision.lcmlog", kVisionNodes, "c.lcmlog");
+  ASSERT_EQ(colour.code, 0) << colour.output;
+  EXPECT_NE(read_bytes(dir / "a.lcmlog"), read_bytes(dir / "c.lcmlog"));
+}
+
 TEST(ReplayRegression, StockLcmLoggerLogReplays) {
   // Recorded live by the stock lcm-logger and kept as recorded. Live, a
   // process may drop input under load (header.seq then differs and outputs
@@ -164,10 +186,9 @@ TEST(ReplayRegression, StockLcmLoggerLogReplays) {
   // messages and seq are not compared and targets and the camera position get
   // 5 cm. Every detection must come out exactly as published live.
   ht::TempDir dir;
-  auto r =
-      replay(dir, "logs/exp1-lcm-logger.lcmlog", kVisionNodes, "out.lcmlog",
-             {"--compare", "--allow-unmatched", "--ignore", "*.header.seq", "--tolerance", "TARGETS.targets[]=0.05",
-              "--tolerance", "TARGETS.camera_position_base=0.05"});
+  auto r = replay(dir, "logs/exp1-lcm-logger.lcmlog", kVisionNodes, "out.lcmlog",
+                  {"--compare", "--allow-unmatched", "--ignore", "*.header.seq", "--tolerance",
+                   "TARGETS.targets[]=0.05", "--tolerance", "TARGETS.camera_position_base=0.05"});
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_FIXED"), 0) << r.output;
   EXPECT_GT(paired(r.output, "SAME", "FRUIT_HAND"), 0) << r.output;
