@@ -69,3 +69,26 @@ function(harvest_benchmark name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark harvest_warnings)
   target_compile_definitions(${name} PRIVATE HARVEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 endfunction()
+
+# harvest_fuzz_target(NAME SOURCES ... [DEPS ...] CORPUS DIR)
+# A fuzz target is a LLVMFuzzerTestOneInput in SOURCES, built twice:
+# * always, linked with tests/fuzz/replay_main.cpp into tests/NAME_replay,
+#   which ctest runs once over every file of the committed corpus DIR
+#   (test fuzz_corpus.NAME, labels unit and fuzz), so every build, gcc
+#   included, replays the corpora;
+# * with -DHARVEST_FUZZ=ON (clang only), as the libFuzzer binary fuzz/NAME
+#   with ASan and UBSan for campaigns (docs/fuzzing.md).
+function(harvest_fuzz_target name)
+  cmake_parse_arguments(ARG "" "CORPUS" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name}_replay ${ARG_SOURCES} ${PROJECT_SOURCE_DIR}/tests/fuzz/replay_main.cpp)
+  set_target_properties(${name}_replay PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  target_link_libraries(${name}_replay PRIVATE ${ARG_DEPS} harvest_warnings)
+  add_test(NAME fuzz_corpus.${name} COMMAND ${name}_replay ${ARG_CORPUS} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+  set_tests_properties(fuzz_corpus.${name} PROPERTIES LABELS "unit;fuzz" TIMEOUT 300)
+  if(HARVEST_FUZZ)
+    add_executable(${name} ${ARG_SOURCES})
+    target_link_options(${name} PRIVATE -fsanitize=fuzzer)
+    target_link_libraries(${name} PRIVATE ${ARG_DEPS} harvest_warnings)
+    set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/fuzz)
+  endif()
+endfunction()

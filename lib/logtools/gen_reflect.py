@@ -10,6 +10,7 @@ import os
 import sys
 
 # The .lcm parser is shared with lib/runtime/gen_wire_check.py.
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "lcmtypes"))
 import lcm_schema  # noqa: E402
 

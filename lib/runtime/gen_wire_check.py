@@ -11,6 +11,7 @@ usage: gen_wire_check.py OUT.hpp FILE.lcm...
 import os
 import sys
 
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "lcmtypes"))
 import lcm_schema  # noqa: E402
 
