@@ -3,6 +3,7 @@
 #include <msgpack.h>
 
 #include <cstring>
+#include <string>
 #include <string_view>
 
 namespace harvest::can {
@@ -31,6 +32,67 @@ bool as_bool(const msgpack_object& o, std::string_view key) {
 uint64_t as_uint(const msgpack_object& o, std::string_view key) {
   if (o.type == MSGPACK_OBJECT_POSITIVE_INTEGER) return o.via.u64;
   throw CanError("python-can frame: '" + std::string(key) + "' is not a non-negative integer");
+}
+
+// msgpack-c allocates every array and map at its declared size before it
+// reads the elements (python_can_codec_fuzz: a datagram declaring 2^32
+// elements asked for 128 GB). Walks the encoded object first and refuses
+// any length or element count the bytes left cannot hold (every element
+// takes at least one byte). Empty when it fits.
+std::string msgpack_too_large(const uint8_t* d, std::size_t size) {
+  std::size_t pos = 0;
+  uint64_t pending = 1;  // objects still to read
+  auto be = [&](std::size_t at, int n) {
+    uint64_t v = 0;
+    for (int i = 0; i < n; ++i) v = (v << 8) | d[at + static_cast<std::size_t>(i)];
+    return v;
+  };
+  while (pending > 0) {
+    if (pending > size - pos) return "declares more objects than the datagram has bytes";
+    --pending;
+    const uint8_t t = d[pos++];
+    uint64_t skip = 0, items = 0;
+    int len_bytes = 0;  // a length field of this many bytes follows
+    bool ext = false;   // ext types carry a type byte after the length
+    if (t <= 0x7f || t >= 0xe0 || t == 0xc0 || t == 0xc2 || t == 0xc3) {
+      // fixint, nil, bool: the type byte is all
+    } else if (t <= 0x8f) {
+      items = 2u * (t & 0x0fu);
+    } else if (t <= 0x9f) {
+      items = t & 0x0fu;
+    } else if (t <= 0xbf) {
+      skip = t & 0x1fu;
+    } else if (t >= 0xc4 && t <= 0xc6) {
+      len_bytes = 1 << (t - 0xc4);
+    } else if (t >= 0xc7 && t <= 0xc9) {
+      len_bytes = 1 << (t - 0xc7);
+      ext = true;
+    } else if (t == 0xca || t == 0xcb) {
+      skip = t == 0xca ? 4 : 8;
+    } else if (t >= 0xcc && t <= 0xd3) {
+      skip = 1u << ((t - 0xcc) % 4);
+    } else if (t >= 0xd4 && t <= 0xd8) {
+      skip = 1 + (1u << (t - 0xd4));
+    } else if (t >= 0xd9 && t <= 0xdb) {
+      len_bytes = 1 << (t - 0xd9);
+    } else if (t >= 0xdc) {  // array16/32, map16/32
+      const int n = (t == 0xdc || t == 0xde) ? 2 : 4;
+      if (static_cast<std::size_t>(n) > size - pos) return "cut short";
+      items = be(pos, n) * (t >= 0xde ? 2u : 1u);
+      pos += static_cast<std::size_t>(n);
+    } else {
+      return "invalid type byte";  // 0xc1, never used
+    }
+    if (len_bytes > 0) {
+      if (static_cast<std::size_t>(len_bytes) > size - pos) return "cut short";
+      skip = be(pos, len_bytes) + (ext ? 1 : 0);
+      pos += static_cast<std::size_t>(len_bytes);
+    }
+    if (skip > size - pos) return "declares a length past the end of the datagram";
+    pos += static_cast<std::size_t>(skip);
+    pending += items;
+  }
+  return {};
 }
 
 }  // namespace
@@ -71,6 +133,8 @@ std::vector<uint8_t> encode_python_can(const CanFrame& frame, double timestamp_s
 }
 
 CanFrame decode_python_can(const uint8_t* data, std::size_t size) {
+  if (const std::string why = msgpack_too_large(data, size); !why.empty())
+    throw CanError("python-can frame: not a complete msgpack object (" + why + ")");
   msgpack_unpacked msg;
   msgpack_unpacked_init(&msg);
   std::size_t offset = 0;
@@ -132,7 +196,9 @@ CanFrame decode_python_can(const uint8_t* data, std::size_t size) {
   frame.remote = f.remote;
   frame.error = f.error;
   frame.dlc = static_cast<uint8_t>(dlc);
-  if (f.data_size > 0) std::memcpy(frame.data.data(), f.data, f.data_size);
+  // A remote frame carries no data on the bus (the encoder sends none): any
+  // bytes in the datagram are not the frame's (python_can_codec_fuzz).
+  if (!f.remote && f.data_size > 0) std::memcpy(frame.data.data(), f.data, f.data_size);
   return frame;
 }
 

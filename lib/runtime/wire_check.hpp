@@ -6,6 +6,8 @@
 // every string length is >= 1 and inside the buffer and every array's
 // elements fit in the bytes left, so the decoder that runs afterwards can
 // neither throw nor allocate more than a small multiple of the message size.
+// Strings must also be text with one terminating NUL, as the encoder writes
+// them, so whatever passes re-encodes to the same bytes.
 //
 // The per-type walks (runtime/wire_check_gen.hpp) are generated from
 // lcmtypes/*.lcm by gen_wire_check.py; only the primitives are written here.
@@ -13,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <string>
@@ -55,7 +58,14 @@ class WireReader {
     if (len < 1) return fail("string length " + std::to_string(len) + " (must be >= 1, it counts the NUL)");
     if (static_cast<uint64_t>(len) > remaining())
       return fail("string length " + std::to_string(len) + ", " + std::to_string(remaining()) + " bytes left");
-    pos_ += static_cast<std::size_t>(len);
+    // The decoder drops the last byte and keeps any NUL before it, the
+    // encoder writes up to the first NUL: anything but text + one final NUL
+    // would not re-encode to the same bytes (found by lcm_decode_fuzz).
+    const auto n = static_cast<std::size_t>(len);
+    if (p_[pos_ + n - 1] != 0) return fail("string of " + std::to_string(len) + " bytes does not end with a NUL");
+    if (std::memchr(p_ + pos_, 0, n - 1) != nullptr)
+      return fail("string of " + std::to_string(len) + " bytes has a NUL inside");
+    pos_ += n;
     return true;
   }
 

@@ -90,6 +90,12 @@ TEST(PythonCanCodec, RejectsMalformedInputWithAReason) {
   auto enc = encode_python_can(f, 0);
   enc[std::string(reinterpret_cast<const char*>(enc.data()), enc.size()).find("arbitration_id") + 14 + 1] = 0x08;
   expect_error(enc, "out of range");
+  // Counts and lengths the datagram cannot hold are refused before msgpack-c
+  // allocates for them (array32 of 2^32 - 1: 128 GB; map16 of 65535; str32 of 1 GB).
+  expect_error(from_hex("ddffffffff01"), "declares more objects than the datagram has bytes");
+  expect_error(from_hex("deffff0101"), "declares more objects than the datagram has bytes");
+  expect_error(from_hex("81a178db40000000616263"), "declares a length past the end");
+  expect_error(from_hex("81a178c1"), "invalid type byte");
 }
 
 TEST(SocketCan, MissingInterfaceOrKernelSupportGivesAClearError) {
@@ -241,6 +247,20 @@ TEST(UdpMulticast, FiltersAndMalformedDatagrams) {
   EXPECT_EQ(got->id, 0x182u);
   EXPECT_EQ(rx.malformed(), 1);
   EXPECT_NE(rx.last_error().find("python-can frame"), std::string::npos);
+}
+
+TEST(PythonCanCodec, ARemoteFrameCarriesNoData) {
+  // Data bytes in a remote frame's datagram are not the frame's (the encoder
+  // sends none); found by python_can_codec_fuzz as a failed round trip.
+  auto bytes = encode_python_can(frame(0x601, {1, 2, 3, 4}), 0);
+  const std::string text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  bytes[text.find("is_remote_frame") + 15] = 0xc3;  // true
+  const CanFrame d = decode_python_can(bytes.data(), bytes.size());
+  EXPECT_TRUE(d.remote);
+  EXPECT_EQ(d.dlc, 4);
+  EXPECT_EQ(d.data, (std::array<uint8_t, 8>{}));
+  const auto again = encode_python_can(d, 0);
+  EXPECT_EQ(decode_python_can(again.data(), again.size()), d);
 }
 
 }  // namespace

@@ -121,3 +121,26 @@ TEST(Config, SequencesOfMappings) {
   const auto msg = error_of([&] { doc.check_unused(); });
   EXPECT_NE(msg.find("joints[1].typo"), std::string::npos) << msg;
 }
+
+TEST(Config, AListOrMappingAsAKeyIsAConfigurationError) {
+  // YAML allows it; yaml-cpp then throws its own exception where a key is
+  // read as a name (found by config_loader_fuzz).
+  auto doc = Document::load_string("? [a, b]\n: 1\nlimits:\n  ? {x: 1}\n  : 2\n", "k.yaml");
+  EXPECT_EQ(error_of([&] { (void)doc.root().keys(); }), "k.yaml: top level: a key must be a name, not a list");
+  EXPECT_EQ(error_of([&] { (void)doc.root().child("limits").keys(); }),
+            "k.yaml: limits: a key must be a name, not a mapping");
+  EXPECT_EQ(error_of([&] { doc.check_unused(); }), "k.yaml: top level: a key must be a name, not a list");
+}
+
+TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
+  // yaml-cpp would load them and emit a configuration it cannot read back
+  // (found by config_loader_fuzz).
+  EXPECT_EQ(error_of([] { Document::load_string("a: 1\nb: {x\x1b: 2}\n", "c.yaml"); }),
+            "c.yaml:2: control character 27 in the text");
+  EXPECT_EQ(error_of([] { Document::load_string("a: 1\n\nb: \xc4\x1b\n", "c.yaml"); }), "c.yaml:3: not UTF-8 text");
+  EXPECT_EQ(error_of([] { Document::load_string("a: \xe2\x82", "c.yaml"); }), "c.yaml:1: not UTF-8 text");
+  // Tabs, CRLF line ends and UTF-8 text are fine.
+  const auto doc = Document::load_string("a: \"\xc2\xb0 and \xe2\x82\xac\"\r\nb:\t2\r\n", "c.yaml");
+  EXPECT_EQ(doc.root().get<std::string>("a", ""), "\xc2\xb0 and \xe2\x82\xac");
+  EXPECT_EQ(error_of([] { Document::load_file("config"); }), "config: a folder, not a configuration file");
+}

@@ -111,6 +111,20 @@ TEST(WireCheck, StringLengthsOutsideTheBufferAreRejected) {
   }
 }
 
+TEST(WireCheck, StringsMustBeTextWithOneFinalNul) {
+  auto with_source = [](const std::vector<uint8_t>& bytes) {
+    Bytes x;
+    x.i64(emergency_stop_t::getHash()).header().i8(1).i8(0);
+    x.i32(static_cast<int64_t>(bytes.size()));
+    x.b.insert(x.b.end(), bytes.begin(), bytes.end());
+    x.str("r");
+    return check<emergency_stop_t>(x);
+  };
+  EXPECT_EQ(with_source({'o', 'p', 0}), "");
+  EXPECT_EQ(with_source({'o', 'p', 'x'}), "source: string of 3 bytes does not end with a NUL");
+  EXPECT_EQ(with_source({'o', 0, 'p', 0}), "source: string of 4 bytes has a NUL inside");
+}
+
 TEST(WireCheck, NegativeArrayCountIsRejected) {
   const Bytes x = robot_command_with_count(-1, 0);
   EXPECT_EQ(check<robot_command_t>(x), "joint_goal: array count -1 (negative)");
