@@ -195,6 +195,7 @@ Document Document::load_string(const std::string& text, const std::string& name)
 Node Document::root() const { return Node(tree_, "", shared_); }
 
 void Document::apply_override(const std::string& assignment) {
+  check_text(assignment, "--set override");  // it lands in the emitted configuration too
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
     throw Error("override '" + assignment + "': expected KEY.PATH=VALUE");

@@ -143,4 +143,6 @@ TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
   const auto doc = Document::load_string("a: \"\xc2\xb0 and \xe2\x82\xac\"\r\nb:\t2\r\n", "c.yaml");
   EXPECT_EQ(doc.root().get<std::string>("a", ""), "\xc2\xb0 and \xe2\x82\xac");
   EXPECT_EQ(error_of([] { Document::load_file("config"); }), "config: a folder, not a configuration file");
+  auto ok = Document::load_string("a: 1\n", "c.yaml");
+  EXPECT_EQ(error_of([&] { ok.apply_override("a=\xff\xfe"); }), "--set override:1: not UTF-8 text");
 }
