@@ -64,6 +64,11 @@ int64_t export_channel(const std::vector<rt::LogRecord>& log, const std::string&
   for (const auto& r : log)
     if (r.channel == channel) rows.push_back({r.timestamp, decode_any(r.data.data(), r.data.size())});
   if (rows.empty()) throw std::runtime_error("channel '" + channel + "' is not in the log");
+  if (options.problems != nullptr)
+    for (const auto& row : rows)
+      if (row.d.type == nullptr)
+        *options.problems << "harvest-log: " << channel << " event at log time " << row.t
+                          << " not decoded: " << row.d.error << "\n";
 
   if (options.format == ExportFormat::kJsonl) {
     for (const auto& row : rows) {

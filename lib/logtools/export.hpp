@@ -19,6 +19,9 @@ struct ExportOptions {
   // Keep only fields whose path, with indices written "[]", equals or starts
   // with one of these ("header.utime", "fruits[]"); empty keeps all.
   std::vector<std::string> fields;
+  // Where to say which events could not be decoded (corrupt or unknown); a
+  // CSV row for one has only its log_utime, a JSON line an "error".
+  std::ostream* problems = nullptr;
 };
 
 // Returns the number of messages written. Throws std::runtime_error if the

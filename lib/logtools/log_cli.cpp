@@ -69,6 +69,7 @@ int log_main(int argc, char** argv) {
       ExportOptions o;
       o.format = format == "jsonl" ? ExportFormat::kJsonl : ExportFormat::kCsv;
       o.fields = fields;
+      o.problems = &std::cerr;
       if (out_file.empty()) {
         export_channel(log, channel, o, std::cout);
       } else {

@@ -95,3 +95,25 @@ TEST(Export, JsonLinesWithFieldSelection) {
   EXPECT_EQ(line.rfind("{\"log_utime\":1010000,\"header.utime\":1010000,\"range_m\":0.00999999978", 0), 0u) << line;
   EXPECT_THROW(lt::export_channel(sample_log(), "NOPE", o, os), std::runtime_error);
 }
+
+TEST(Export, ACorruptEventIsReportedNeverDecoded) {
+  // The 58-byte EMERGENCY_STOP of issue 16 (header.frame_id length 0) in a log.
+  harvest::ir_range_t ir{};
+  ir.header.frame_id = "x";
+  auto bad = rt::encode(ir);
+  bad[24] = bad[25] = bad[26] = bad[27] = 0;
+  bad.erase(bad.begin() + 28, bad.begin() + 30);
+  auto log = sample_log();
+  log.push_back({3'000'000, "IR_RANGE", bad});
+  std::ostringstream csv, problems;
+  lt::ExportOptions o;
+  o.problems = &problems;
+  EXPECT_EQ(lt::export_channel(log, "IR_RANGE", o, csv), 53);
+  EXPECT_NE(csv.str().find("\n3000000,,"), std::string::npos);
+  EXPECT_EQ(problems.str(),
+            "harvest-log: IR_RANGE event at log time 3000000 not decoded: malformed harvest.ir_range_t (53 bytes): "
+            "header.frame_id: string length 0 (must be >= 1, it counts the NUL)\n");
+  const auto info = lt::log_info(log);
+  EXPECT_EQ(info.channels[1].decode_errors, 1);
+  EXPECT_NE(lt::format_info("x.lcmlog", info).find("IR_RANGE: 1 malformed messages"), std::string::npos);
+}
