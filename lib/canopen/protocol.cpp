@@ -25,7 +25,7 @@ CanFrame segment(uint32_t id, uint8_t specifier, bool toggle, const uint8_t* dat
   CanFrame f = make(id, 8);
   // byte 0: scs/ccs (3 bits) | toggle (bit 4) | n = unused bytes (bits 3..1) | c = last (bit 0)
   f.data[0] = static_cast<uint8_t>((specifier << 5) | (toggle ? 0x10 : 0) | ((7 - n) << 1) | (last ? 1 : 0));
-  std::memcpy(&f.data[1], data, n);
+  if (n > 0) std::memcpy(&f.data[1], data, n);  // an empty object's data() may be null (canopen_frames_fuzz, UBSan)
   return f;
 }
 
