@@ -102,13 +102,7 @@ bool Recorder::within_rate(const std::string& channel, int64_t utime) {
     lim = limit_of_.emplace(channel, found).first;
   }
   if (lim->second == nullptr) return true;
-  const auto period = static_cast<int64_t>(1e6 / lim->second->max_hz);
-  auto [due, first] = next_due_.try_emplace(channel, utime);
-  if (utime < due->second) return false;
-  // Slots one period apart, so 30 Hz kept at 5 Hz averages 5 Hz; after a gap
-  // (or the first message) the slots start again from this message.
-  due->second = first || utime - due->second >= period ? utime + period : due->second + period;
-  return true;
+  return gates_.try_emplace(channel, lim->second->max_hz).first->second.admit(utime);
 }
 
 bool Recorder::on_message(const std::string& channel, int64_t recv_utime, const void* data, uint32_t size) {

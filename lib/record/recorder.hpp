@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "runtime/rate_gate.hpp"
+
 namespace lcm {
 class LogFile;
 }
@@ -72,7 +74,7 @@ class Recorder {
   std::regex channels_;
   std::map<std::string, bool> wanted_;                // channel -> recorded (regex result cached)
   std::map<std::string, const RateLimit*> limit_of_;  // channel -> its limit, nullptr: none
-  std::map<std::string, int64_t> next_due_;           // rate-limited channel -> next time one is kept
+  std::map<std::string, rt::RateGate> gates_;         // rate-limited channel -> its gate
   std::unique_ptr<lcm::LogFile> log_;
   int64_t part_bytes_ = 0;
   int64_t eventnum_ = 0;

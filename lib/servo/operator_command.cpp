@@ -1,7 +1,15 @@
 #include "servo/operator_command.hpp"
 
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <stdexcept>
+#include <thread>
+
+#include "runtime/channels.hpp"
 
 namespace harvest::servo {
 
@@ -47,6 +55,28 @@ OperatorMessage make_operator_message(const std::string& verb, const std::string
   c.command = it->second;
   c.source = source;
   return c;
+}
+
+std::string operator_source(const std::string& tool) {
+  const char* user = std::getenv("USER");
+  char host[256] = {};
+  gethostname(host, sizeof(host) - 1);
+  return std::string(user ? user : "unknown") + "@" + host + " (" + tool + " " + std::to_string(getpid()) + ")";
+}
+
+int default_repeat(const std::string& verb) { return verb.rfind("estop", 0) == 0 ? 3 : 1; }
+
+bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, const OperatorMessage& msg, int repeat) {
+  for (int i = 0; i < repeat; ++i) {
+    int rc = 0;
+    if (const auto* e = std::get_if<emergency_stop_t>(&msg))
+      rc = lcm.publish(prefix + channels::kEmergencyStop, e);
+    else
+      rc = lcm.publish(prefix + channels::kOperatorCommand, &std::get<operator_command_t>(msg));
+    if (rc != 0) return false;
+    if (i + 1 < repeat) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
 }
 
 Acknowledgement acknowledgement(const std::string& verb, const std::string& source, const harvest_status_t& status) {

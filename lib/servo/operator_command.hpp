@@ -10,6 +10,10 @@
 #include "harvest/operator_command_t.hpp"
 #include "runtime/clock.hpp"
 
+namespace lcm {
+class LCM;
+}
+
 namespace harvest::servo {
 
 using OperatorMessage = std::variant<operator_command_t, emergency_stop_t>;
@@ -21,6 +25,20 @@ const std::vector<std::string>& operator_verbs();
 // listing the valid verbs for anything else.
 OperatorMessage make_operator_message(const std::string& verb, const std::string& source, const std::string& reason,
                                       rt::Micros utime);
+
+// "USER@HOST (TOOL PID)": who sends a command, unique to this process so
+// the controller's reply names this very sender.
+std::string operator_source(const std::string& tool);
+
+// How many copies of `verb` go out by default: three of an emergency stop or
+// its release (UDP multicast may drop a datagram), one of anything else.
+int default_repeat(const std::string& verb);
+
+// Publishes `msg` on PREFIX + OPERATOR_COMMAND or EMERGENCY_STOP, `repeat`
+// copies 20 ms apart. The one path every operator front end (harvest-operator,
+// harvest-console) sends through, so command authentication is added here
+// once. Returns false when a publish fails.
+bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, const OperatorMessage& msg, int repeat);
 
 // The controller's reply to one command, read from HARVEST_STATUS (it
 // publishes one at once on every operator command): the summary names the

@@ -12,27 +12,17 @@
 #include <CLI/CLI.hpp>
 #include <harvest/harvest_status_t.hpp>
 #include <lcm/lcm-cpp.hpp>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
 #include <iostream>
 #include <optional>
-#include <thread>
 
 #include "runtime/channels.hpp"
 #include "runtime/checked_subscription.hpp"
 #include "servo/operator_command.hpp"
 
 namespace {
-
-std::string default_source() {
-  const char* user = std::getenv("USER");
-  char host[256] = {};
-  gethostname(host, sizeof(host) - 1);
-  // The pid makes the sender unique, so the controller's reply names this very command.
-  return std::string(user ? user : "unknown") + "@" + host + " (harvest-operator " + std::to_string(getpid()) + ")";
-}
 
 struct StatusListener {
   std::optional<harvest::harvest_status_t> latest;
@@ -47,7 +37,7 @@ struct StatusListener {
 
 int main(int argc, char** argv) {
   CLI::App app{"Send an operator command or an emergency stop to the servo controller and wait for its reply"};
-  std::string verb, source = default_source(), reason, url, prefix;
+  std::string verb, source = harvest::servo::operator_source("harvest-operator"), reason, url, prefix;
   int repeat = 0;  // 0: three copies of an emergency stop, one of anything else
   double timeout_s = 2.0;
   bool no_wait = false;
@@ -66,7 +56,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-wait", no_wait, "send and exit without waiting for the acknowledgement");
   CLI11_PARSE(app, argc, argv);
 
-  if (repeat == 0) repeat = verb.rfind("estop", 0) == 0 ? 3 : 1;
+  if (repeat == 0) repeat = harvest::servo::default_repeat(verb);
 
   lcm::LCM lcm(url);
   if (!lcm.good()) {
@@ -84,17 +74,9 @@ int main(int argc, char** argv) {
                           .count();
   const auto msg = harvest::servo::make_operator_message(verb, source, reason, now_us);
   // An emergency stop goes out more than once: UDP multicast may drop a datagram.
-  for (int i = 0; i < repeat; ++i) {
-    int rc = 0;
-    if (const auto* e = std::get_if<harvest::emergency_stop_t>(&msg))
-      rc = lcm.publish(prefix + harvest::channels::kEmergencyStop, e);
-    else
-      rc = lcm.publish(prefix + harvest::channels::kOperatorCommand, &std::get<harvest::operator_command_t>(msg));
-    if (rc != 0) {
-      std::cerr << "harvest-operator: publish failed\n";
-      return 1;
-    }
-    if (i + 1 < repeat) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  if (!harvest::servo::send_operator_message(lcm, prefix, msg, repeat)) {
+    std::cerr << "harvest-operator: publish failed\n";
+    return 1;
   }
   std::cout << "sent " << verb << " (" << repeat << "x) as " << source << std::endl;
   if (no_wait) return 0;
