@@ -10,12 +10,11 @@
 // 4 refused by the controller, 5 the controller answers but did not
 // acknowledge this command within --timeout.
 #include <CLI/CLI.hpp>
-#include <harvest/harvest_status_t.hpp>
-#include <lcm/lcm-cpp.hpp>
-
 #include <chrono>
 #include <cstdlib>
+#include <harvest/harvest_status_t.hpp>
 #include <iostream>
+#include <lcm/lcm-cpp.hpp>
 #include <optional>
 
 #include "runtime/channels.hpp"
