@@ -26,6 +26,10 @@ servo::OperatorMessage CommandTracker::command(const std::string& verb, int64_t 
   return msg;
 }
 
+void CommandTracker::invalid_request(const std::string& why, int64_t now_us) {
+  last_ = Pending{"?", now_us, "invalid", "console: " + why + "; nothing sent"};
+}
+
 void CommandTracker::send_failed(int64_t /*now_us*/) {
   if (!last_) return;
   last_->state = "send failed";

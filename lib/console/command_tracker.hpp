@@ -28,11 +28,14 @@ class CommandTracker {
 
   // The message for `verb`, stamped `now_us`; it becomes the tracked command.
   servo::OperatorMessage command(const std::string& verb, int64_t now_us);
+  // A request the console refused (verb_of_request's reason): it becomes the
+  // shown line, state "invalid", so the page keeps showing why nothing was sent.
+  void invalid_request(const std::string& why, int64_t now_us);
   // The send failed (LCM publish): shown as such, nothing is awaited.
   void send_failed(int64_t now_us);
   void on_status(const harvest_status_t& m, int64_t now_us);
 
-  // {"verb", "state": waiting|accepted|refused|no reply|send failed, "detail", "age_s"}; null before the first.
+  // {"verb", "state": waiting|accepted|refused|no reply|send failed|invalid, "detail", "age_s"}; null before the first.
   nlohmann::json to_json(int64_t now_us) const;
 
  private:

@@ -143,6 +143,10 @@ int ws_data(mg_connection* conn, int flags, char* data, size_t len, void* cb) {
     std::lock_guard lock(s->m);
     s->requests.push_back(verb);
   } catch (const std::exception& e) {
+    {
+      std::lock_guard lock(s->m);
+      s->tracker.invalid_request(e.what(), now_us());
+    }
     const std::string reply = nlohmann::json{{"error", e.what()}}.dump();
     mg_websocket_write(conn, MG_WEBSOCKET_OPCODE_TEXT, reply.data(), reply.size());
   }

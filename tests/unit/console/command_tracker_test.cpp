@@ -94,6 +94,19 @@ TEST(CommandTracker, EstopIsAnEmergencyStopAcknowledgedByTheLatchedFlag) {
   EXPECT_EQ(t.to_json(80)["state"], "accepted");
 }
 
+TEST(CommandTracker, InvalidRequestStaysShownUntilTheNextCommand) {
+  CommandTracker t("c");
+  t.command("reset-fault", 0);
+  t.on_status(status("IDLE: command refused: no fault to reset (from c)"), 10);
+  t.invalid_request("unknown command \"launch\"", 20);
+  EXPECT_EQ(t.to_json(30)["state"], "invalid");
+  EXPECT_EQ(t.to_json(30)["detail"], "console: unknown command \"launch\"; nothing sent");
+  t.on_status(status("IDLE: command refused: no fault to reset (from c)"), 40);
+  EXPECT_EQ(t.to_json(10'000'000)["state"], "invalid");  // never turns into "no reply"
+  t.command("start", 50);
+  EXPECT_EQ(t.to_json(60)["state"], "waiting");
+}
+
 TEST(CommandTracker, SendFailureShown) {
   CommandTracker t("c");
   t.command("home", 0);
