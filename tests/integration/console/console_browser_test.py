@@ -80,11 +80,9 @@ class ConsoleBrowser(unittest.TestCase):
         set_path = os.path.join(ART, "set.yaml")
         with open(set_path, "w") as f:
             yaml.safe_dump(process_set, f)
-        self.launcher = subprocess.Popen(
-            [os.path.join(BIN, "harvest-launch"), set_path, "--exit-with", "sim", "--no-table",
-             "--bin-dir", BIN, "--lcm-url", self.lcm_url, "--set", "site.can_bus=" + can_bus,
-             "--set", "site.board_port=%d" % board_port],
-            cwd=SRC, stdout=self.launch_out, stderr=subprocess.STDOUT)
+        self.launcher = None
+        self.set_path = set_path
+        self.launch_args = (can_bus, board_port)
         self.console = subprocess.Popen(
             [os.path.join(BIN, "harvest-console"), "--listen", self.http, "--lcm-url", self.lcm_url,
              "--stats-s", "5"], cwd=SRC, stdout=self.console_out, stderr=subprocess.STDOUT)
@@ -95,6 +93,15 @@ class ConsoleBrowser(unittest.TestCase):
                   "--window-size=1500,1300"):
             options.add_argument(a)
         self.driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+    def start_set(self):
+        # Started once the browser is up, so Chromium's start-up (CPU on 2 shared cores) does not overlap the
+        # simulated drives being enabled (they missed the link's first PDO deadlines when it did).
+        self.launcher = subprocess.Popen(
+            [os.path.join(BIN, "harvest-launch"), self.set_path, "--exit-with", "sim", "--no-table",
+             "--bin-dir", BIN, "--lcm-url", self.lcm_url, "--set", "site.can_bus=" + self.launch_args[0],
+             "--set", "site.board_port=%d" % self.launch_args[1]],
+            cwd=SRC, stdout=self.launch_out, stderr=subprocess.STDOUT)
 
     def tearDown(self):
         if self.driver is not None:
@@ -113,15 +120,16 @@ class ConsoleBrowser(unittest.TestCase):
     def wait_for(self, what, predicate, timeout):
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            self.assertIsNone(self.launcher.poll(), "the set ended early (see %s/launch.log)" % ART)
+            self.assertTrue(self.launcher is None or self.launcher.poll() is None, "the set ended early (see %s/launch.log)" % ART)
             self.assertIsNone(self.console.poll(), "harvest-console exited (see %s)" % self.console_log)
             value = predicate()
             if value:
                 return value
             time.sleep(0.2)
         self.shot("timeout")
-        self.fail("%s not seen within %.0f s; page: ack=%r state=%r" %
-                  (what, timeout, self.text("ack"), self.text("h-state")))
+        self.fail("%s not seen within %.0f s; page: ack=%r state=%r arm=%r %r" %
+                  (what, timeout, self.text("ack"), self.text("h-state"), self.text("r-mode"),
+                   self.text("r-fault")[:300]))
 
     def console_output(self):
         with open(self.console_log) as f:
@@ -135,6 +143,7 @@ class ConsoleBrowser(unittest.TestCase):
         self.wait_for("the console serving", lambda: "serving" in self.console_output(), 10)
         d.get("http://%s/" % self.http)
         self.wait_for("the page connected", lambda: self.text("link") == "live", 10)
+        self.start_set()
 
         # Every process of the set, each healthy, and the controller's state.
         expected = {"sim", "robot-link", "ee-bridge", "detector-fixed", "detector-hand", "reconstructor",
@@ -154,8 +163,8 @@ class ConsoleBrowser(unittest.TestCase):
             ok = d.execute_script("""
                 return [...document.querySelectorAll('#proc-table tbody tr')]
                     .filter(r => r.children[4].textContent === 'OK').map(r => r.dataset.instance);""")
-            return expected <= set(ok)
-        self.wait_for("every process OK", instances_ok, 60)
+            return expected <= set(ok) and self.text("r-mode") == "IDLE"
+        self.wait_for("every process OK and the arm IDLE", instances_ok, 60)
         self.wait_for("the controller's state", lambda: self.text("h-state") == "IDLE", 30)
         self.shot("01-processes")
         self.assertEqual(len(self.sent_lines()), len(resets),
