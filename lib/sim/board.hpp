@@ -12,14 +12,11 @@
 
 namespace harvest::sim {
 
-struct BoardSpec {
-  int squares_x = 7, squares_y = 5;
-  double square_m = 0.04, marker_m = 0.03;
-  int dictionary = cv::aruco::DICT_5X5_100;  // cv::aruco::PREDEFINED_DICTIONARY_NAME
-  double margin_m = 0.02;                    // white plate around the squares (the detector's quiet zone)
-
-  cv::Ptr<cv::aruco::CharucoBoard> make() const;
-};
+// OpenCV's board for a spec; throws std::invalid_argument on an impossible
+// layout or an unknown dictionary.
+cv::Ptr<cv::aruco::CharucoBoard> make_board(const BoardSpec& spec);
+// The dictionary names make_board accepts.
+const std::vector<std::string>& board_dictionaries();
 
 // The board on its plate; `pose` takes board-frame points to the base frame.
 // The board frame is OpenCV 4.6's: origin at the top-left corner of the

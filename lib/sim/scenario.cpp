@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "sim/board.hpp"
+
 namespace harvest::sim {
 namespace {
 
@@ -192,6 +194,30 @@ Scenario Scenario::from_config(const config::Node& root) {
         var.fruit.push_back(static_cast<int>(i));
       }
       s.variants.push_back(var);
+    }
+  }
+
+  if (root.has("boards")) {
+    for (const auto& b : root.children("boards")) {
+      BoardSetup bs;
+      const auto sq = b.numbers("squares", {7, 5}, 2);
+      if (sq[0] != std::floor(sq[0]) || sq[1] != std::floor(sq[1]) || sq[0] < 3 || sq[1] < 3 || sq[0] > 40 ||
+          sq[1] > 40)
+        b.fail("squares", "two whole numbers of squares, 3..40");
+      bs.spec.squares_x = static_cast<int>(sq[0]);
+      bs.spec.squares_y = static_cast<int>(sq[1]);
+      bs.spec.square_m = b.get<double>("square_mm", 40.0, {5.0, 500.0}) * kMm;
+      bs.spec.marker_m = b.get<double>("marker_mm", 30.0, {3.0, 500.0}) * kMm;
+      if (bs.spec.marker_m >= bs.spec.square_m) b.fail("marker_mm", "smaller than square_mm");
+      bs.spec.margin_m = b.get<double>("margin_mm", 20.0, {0.0, 500.0}) * kMm;
+      bs.spec.dictionary = b.choice("dictionary", bs.spec.dictionary, board_dictionaries());
+      bs.pose = placement_rpy(b.child("stand"), Vec3::Zero(), Vec3::Zero());
+      try {
+        make_board(bs.spec);
+      } catch (const std::invalid_argument& e) {
+        b.fail("dictionary", std::string("a board OpenCV can make (") + e.what() + ")");
+      }
+      s.boards.push_back(bs);
     }
   }
 

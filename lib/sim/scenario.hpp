@@ -179,6 +179,21 @@ struct Faults {
   double board_silent_duration_s = 0.0;  // ... for this long (0: for good)
 };
 
+// A printed ChArUco calibration board (issue 20; drawn by sim::BoardPrimitive).
+struct BoardSpec {
+  int squares_x = 7, squares_y = 5;
+  double square_m = 0.04, marker_m = 0.03;
+  std::string dictionary = "DICT_5X5_100";  // an OpenCV predefined ArUco dictionary (board.cpp lists them)
+  double margin_m = 0.02;                   // white plate around the squares (the detector's quiet zone)
+};
+
+// A board on a stand: `pose` takes board-frame points (OpenCV's board frame)
+// to the base frame.
+struct BoardSetup {
+  BoardSpec spec;
+  Placement pose;
+};
+
 struct Scenario {
   std::string name;
   std::string description;
@@ -198,6 +213,7 @@ struct Scenario {
   GripperSetup gripper;
   IrSetup ir;
   Faults faults;
+  std::vector<BoardSetup> boards;  // calibration boards in the scene
 
   static Scenario from_config(const config::Node& node);
 

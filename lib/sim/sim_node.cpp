@@ -18,6 +18,7 @@
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
+#include "sim/board.hpp"
 #include "sim/ports.hpp"
 
 namespace harvest::sim {
@@ -82,6 +83,11 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
       hand_renderer_(scenario_.hand_camera.model, scenario_.hand_camera.noise_std, scenario_.seed + 2) {
   fixed_renderer_.set_look(scenario_.look, scenario_.fixed_camera.rate_hz);
   hand_renderer_.set_look(scenario_.look, scenario_.hand_camera.rate_hz);
+  for (const BoardSetup& b : scenario_.boards) {
+    const auto board = std::make_shared<const BoardPrimitive>(b.spec, b.pose);
+    fixed_renderer_.add_primitive(board);
+    hand_renderer_.add_primitive(board);
+  }
   // What the fixed camera sees of each fruit before anything moves decides
   // which fruit the run is scored on.
   fixed_renderer_.render(scene_, scenario_.fixed_camera_truth);
