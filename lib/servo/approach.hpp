@@ -61,7 +61,7 @@ class ApproachStrategy {
 // -kv de/dt with its error sign; here kd > 0 always damps.)
 class ReconstructionApproach final : public ApproachStrategy {
  public:
-  ReconstructionApproach(Gains gains, CameraIntrinsics camera) : gains_(gains), camera_(camera) {}
+  ReconstructionApproach(Gains gains, geometry::CameraModel camera) : gains_(gains), camera_(camera) {}
   std::string name() const override { return "reconstruction"; }
   void reset() override;
   ApproachOutput update(const ApproachInput& in) override;
@@ -75,7 +75,7 @@ class ReconstructionApproach final : public ApproachStrategy {
   };
   std::deque<Seen> seen_;
   Gains gains_;
-  CameraIntrinsics camera_;
+  geometry::CameraModel camera_;
   std::optional<rt::Micros> last_utime_;
   Eigen::Vector3d last_error_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d error_rate_ = Eigen::Vector3d::Zero();

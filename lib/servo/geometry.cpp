@@ -46,11 +46,11 @@ double rotation_distance(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::AngleAxisd(a.transpose() * b).angle();
 }
 
-Eigen::Vector2d undistort_pixel(const CameraIntrinsics& cam, double u, double v) {
+Eigen::Vector2d undistort_pixel(const geometry::CameraModel& cam, double u, double v) {
   // Inverse of the upper-triangular intrinsic matrix (eq. 6-6, 6-9).
-  const double yd = (v - cam.v0) / cam.fy;
-  const double xd = (u - cam.u0 - cam.skew * yd) / cam.fx;
-  const auto& d = cam.distortion;
+  const double yd = (v - cam.cy) / cam.fy;
+  const double xd = (u - cam.cx - cam.skew * yd) / cam.fx;
+  const auto& d = cam.dist;
   double x = xd, y = yd;
   for (int i = 0; i < 20; ++i) {
     const double r2 = x * x + y * y;
@@ -63,19 +63,19 @@ Eigen::Vector2d undistort_pixel(const CameraIntrinsics& cam, double u, double v)
   return {x, y};
 }
 
-bool project_point(const CameraIntrinsics& cam, const Eigen::Vector3d& p, Eigen::Vector2d& pixel) {
+bool project_point(const geometry::CameraModel& cam, const Eigen::Vector3d& p, Eigen::Vector2d& pixel) {
   if (p.z() <= 1e-6) return false;
   const double x = p.x() / p.z(), y = p.y() / p.z();
-  const auto& d = cam.distortion;
+  const auto& d = cam.dist;
   const double r2 = x * x + y * y;
   const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
   const double xd = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
   const double yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
-  pixel = {cam.fx * xd + cam.skew * yd + cam.u0, cam.fy * yd + cam.v0};
+  pixel = {cam.fx * xd + cam.skew * yd + cam.cx, cam.fy * yd + cam.cy};
   return true;
 }
 
-std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const Eigen::Isometry3d& camera,
+std::vector<Eigen::Vector2d> project_segment(const geometry::CameraModel& cam, const Eigen::Isometry3d& camera,
                                              const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   // 64 samples: at most a few pixels of chord error for a segment across the
   // whole image. Beyond 0.8 in normalised coordinates (about 39 deg, well

@@ -38,17 +38,17 @@ double rotation_distance(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 
 // Normalised image coordinates (x/z, y/z) of a distorted pixel: invert the
 // intrinsic matrix, then remove the distortion by fixed-point iteration.
-Eigen::Vector2d undistort_pixel(const CameraIntrinsics& cam, double u, double v);
+Eigen::Vector2d undistort_pixel(const geometry::CameraModel& cam, double u, double v);
 
 // Pixel of a point in the camera frame (z forward), distortion applied.
 // Returns false if the point is not in front of the camera.
-bool project_point(const CameraIntrinsics& cam, const Eigen::Vector3d& p_camera, Eigen::Vector2d& pixel);
+bool project_point(const geometry::CameraModel& cam, const Eigen::Vector3d& p_camera, Eigen::Vector2d& pixel);
 
 // Image of the 3D segment a..b (base frame) in a camera at `camera` (optical
 // frame in the base frame), as a polyline: the segment is sampled because
 // distortion bends its image. Parts behind the camera or far outside its
 // field of view are left out; empty if nothing of it is in view.
-std::vector<Eigen::Vector2d> project_segment(const CameraIntrinsics& cam, const Eigen::Isometry3d& camera,
+std::vector<Eigen::Vector2d> project_segment(const geometry::CameraModel& cam, const Eigen::Isometry3d& camera,
                                              const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 // Where two rays o + s d (unit d, s > 0) come closest: the midpoint of the
 // two closest points, their distance (`gap`) and the angle between the rays.

@@ -1,42 +1,10 @@
 #include "servo/servo_config.hpp"
 
 #include <cmath>
-#include <filesystem>
-#include <opencv2/core.hpp>
 
 namespace harvest::servo {
 
 using config::Range;
-
-CameraIntrinsics load_camera_intrinsics(const std::string& file) {
-  if (!std::filesystem::exists(file)) throw config::Error(file + ": camera calibration file not found");
-  cv::FileStorage fs;
-  try {
-    fs.open(file, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw config::Error(file + ": cannot parse camera calibration: " + e.what());
-  }
-  if (!fs.isOpened()) throw config::Error(file + ": cannot open camera calibration");
-  cv::Mat k, d;
-  fs["camera_matrix"] >> k;
-  fs["distortion_coefficients"] >> d;
-  if (k.rows != 3 || k.cols != 3) throw config::Error(file + ": camera_matrix: expected a 3x3 matrix");
-  if (d.total() != 5) throw config::Error(file + ": distortion_coefficients: expected 5 numbers (k1 k2 p1 p2 k3)");
-  k.convertTo(k, CV_64F);
-  d.convertTo(d, CV_64F);
-  CameraIntrinsics c;
-  c.fx = k.at<double>(0, 0);
-  c.skew = k.at<double>(0, 1);
-  c.u0 = k.at<double>(0, 2);
-  c.fy = k.at<double>(1, 1);
-  c.v0 = k.at<double>(1, 2);
-  for (int i = 0; i < 5; ++i) c.distortion[static_cast<std::size_t>(i)] = d.at<double>(i);
-  c.width = static_cast<int>(fs["image_width"].real());
-  c.height = static_cast<int>(fs["image_height"].real());
-  if (!(c.fx > 0 && c.fy > 0) || c.width <= 0 || c.height <= 0)
-    throw config::Error(file + ": expected positive focal lengths, image_width and image_height");
-  return c;
-}
 
 bool Workspace::contains(const Eigen::Vector3d& p, double margin) const {
   const double r = p.norm();
@@ -173,7 +141,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
                             {"ir_stale", &to.ir_stale}})
     *value = t.get(key, *value, {0.01, 600.0});
 
-  c.hand_camera = load_camera_intrinsics(n.file_path("hand_camera_calibration", "config/cameras/hand.yaml").string());
+  c.hand_camera = geometry::CameraModel::from_config(n, "hand_camera_calibration", "config/cameras/hand.yaml");
   return c;
 }
 

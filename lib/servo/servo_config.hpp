@@ -8,19 +8,14 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "geometry/camera_model.hpp"
 
 namespace harvest::servo {
 
-// Pinhole camera with OpenCV's distortion model (k1 k2 p1 p2 k3), eq. 6-9.
-struct CameraIntrinsics {
-  double fx = 833.57, fy = 767.02, skew = 0.0, u0 = 319.5, v0 = 239.5;
-  std::array<double, 5> distortion{};  // k1 k2 p1 p2 k3
-  int width = 640, height = 480;
-};
-
-// Reads an OpenCV calibration file (camera_matrix, distortion_coefficients,
-// image_width, image_height). Throws config::Error naming the file.
-CameraIntrinsics load_camera_intrinsics(const std::string& file);
+// The hand camera before a calibration is loaded (ServoConfig{} in unit
+// tests); from_yaml() replaces it with geometry::CameraModel::load(), the one
+// loader every process uses.
+inline const geometry::CameraModel kDefaultHandCamera{833.57, 767.02, 0.0, 319.5, 239.5, {}, 640, 480};
 
 // Axis-aligned box in the base frame plus a reach shell around the base
 // origin: a commanded motion never leaves it, a target outside is skipped.
@@ -151,7 +146,7 @@ struct ServoConfig {
   Workspace workspace;
   Gains gains;
   Timeouts timeouts;
-  CameraIntrinsics hand_camera;
+  geometry::CameraModel hand_camera = kDefaultHandCamera;
   std::string approach_mode = "reconstruction";  // pluggable approach strategy (approach.hpp)
   // ORIENT in place: "pose_goal" (a pose goal the robot link runs along a
   // smooth path) or "thesis_pd" (the thesis's PD law on the aim angles,

@@ -7,7 +7,7 @@ namespace harvest::servo {
 TbzApproachParams tbz_params_from(const ServoConfig& config) {
   TbzApproachParams p;
   const auto& c = config.hand_camera;
-  p.controller.A_hat << c.fx, c.skew, c.u0, 0, c.fy, c.v0, 0, 0, 1;
+  p.controller.A_hat << c.fx, c.skew, c.cx, 0, c.fy, c.cy, 0, 0, 1;
   p.controller.max_linear_speed = config.max_linear_speed;
   p.controller.max_angular_speed = config.max_angular_speed;
   return p;

@@ -24,7 +24,7 @@ double shade(const Lighting& light, double cos_sun) {
 
 }  // namespace
 
-Renderer::Renderer(const vision::CameraModel& model, double noise_std, uint64_t seed)
+Renderer::Renderer(const geometry::CameraModel& model, double noise_std, uint64_t seed)
     : model_(model), w_(model.width), h_(model.height), noise_state_(seed), noise_std_(noise_std), seed_(seed) {
   model_.validate();
   const std::size_t n = static_cast<std::size_t>(w_) * h_;

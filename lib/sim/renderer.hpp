@@ -1,5 +1,5 @@
 // Software renderer of a Scene through one camera (the true intrinsics and
-// distortion, via vision::CameraModel).
+// distortion, via geometry::CameraModel).
 //
 // Every pixel's viewing ray is precomputed once by undistorting the pixel
 // (so distortion is exact, not approximated); each primitive (fruit sphere,
@@ -24,11 +24,11 @@
 #include <optional>
 #include <vector>
 
+#include "geometry/camera_model.hpp"
 #include "sim/camera_effects.hpp"
 #include "sim/materials.hpp"
 #include "sim/scene.hpp"
 #include "sim/shadow_map.hpp"
-#include "vision/camera_model.hpp"
 
 namespace harvest::sim {
 
@@ -71,7 +71,7 @@ class Renderer {
     virtual void draw(Canvas& canvas, const Mat3& rotation, const Vec3& translation) const = 0;
   };
 
-  Renderer(const vision::CameraModel& model, double noise_std, uint64_t seed);
+  Renderer(const geometry::CameraModel& model, double noise_std, uint64_t seed);
 
   // The look to draw with (default: flat). `rate_hz`: the camera's frame rate
   // (motion blur and drift clocks of the field look).
@@ -96,7 +96,7 @@ class Renderer {
   // Per fruit: how it is drawn in the field look (ripeness, colours).
   FruitMaterial fruit_material(const Scene& scene, std::size_t fruit_index) const;
 
-  const vision::CameraModel& model() const { return model_; }
+  const geometry::CameraModel& model() const { return model_; }
 
  private:
   // Pixels that may see a sphere of radius r at camera-frame centre c.
@@ -116,7 +116,7 @@ class Renderer {
   void shade_field(const Scene& scene, const Placement& pose, const Eigen::Vector3f& sun);
   Eigen::Vector2f image_motion(const Placement& pose, const Placement& previous) const;
 
-  vision::CameraModel model_;
+  geometry::CameraModel model_;
   int w_, h_;
   std::vector<float> nx_, ny_;  // undistorted normalised ray per pixel (z = 1)
   float nx_min_, nx_max_, ny_min_, ny_max_;

@@ -23,8 +23,8 @@ Box box_mm(const config::Node& n, const Box& fallback) {
   return b;
 }
 
-vision::CameraModel camera_model(const config::Node& n) {
-  vision::CameraModel m;
+geometry::CameraModel camera_model(const config::Node& n) {
+  geometry::CameraModel m;
   m.width = n.get<int>("image_width", 320, {16, 4096});
   m.height = n.get<int>("image_height", 240, {16, 4096});
   // Default: the thesis's KPCS20-CP1 (fx 833.57, fy 767.02 px at 640x480) scaled to the image width.

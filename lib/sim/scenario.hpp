@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "config/config.hpp"
-#include "vision/camera_model.hpp"
+#include "geometry/camera_model.hpp"
 
 namespace harvest::sim {
 
@@ -33,7 +33,7 @@ inline Placement compose(const Placement& a, const Placement& child) {
 }
 
 struct CameraSetup {
-  vision::CameraModel model;  // the TRUE intrinsics and distortion
+  geometry::CameraModel model;  // the TRUE intrinsics and distortion
   double rate_hz = 30.0;
   double noise_std = 2.0;         // sensor noise [grey levels]
   std::string encoding = "jpeg";  // jpeg | bgr8

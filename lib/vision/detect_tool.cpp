@@ -74,8 +74,8 @@ cv::Mat read_image(const std::string& path) {
 
 // Focal lengths scale with the image if it is not the calibrated size.
 Detections detect_file_image(const DetectorNodeConfig& config, const cv::Mat3b& img) {
-  const CameraModel& cal = config.calibration;
-  const CameraModel cam = cal.zoomed(0, 0, cal.width, cal.height, img.cols, img.rows);
+  const geometry::CameraModel& cal = config.calibration;
+  const geometry::CameraModel cam = cal.zoomed(0, 0, cal.width, cal.height, img.cols, img.rows);
   FruitDetector detector(config.detector, cam.fx, cam.fy);
   return detector.detect(img);
 }

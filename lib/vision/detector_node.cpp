@@ -19,12 +19,7 @@ DetectorNodeConfig DetectorNodeConfig::from_yaml(const config::Node& n) {
       n.get<std::string>("input_channel", c.camera == "hand" ? channels::kCameraHand : channels::kCameraFixed);
   c.output_channel =
       n.get<std::string>("output_channel", c.camera == "hand" ? channels::kFruitHand : channels::kFruitFixed);
-  const auto path = n.file_path("calibration", "config/cameras/" + c.camera + ".yaml");
-  try {
-    c.calibration = CameraModel::load(path);
-  } catch (const std::exception& e) {
-    n.fail("calibration", std::string("a readable camera calibration (") + e.what() + ")");
-  }
+  c.calibration = geometry::CameraModel::from_config(n, "calibration", "config/cameras/" + c.camera + ".yaml");
   c.detector = DetectorConfig::from_yaml(n.child("detector"));
   return c;
 }

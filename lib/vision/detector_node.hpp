@@ -6,11 +6,11 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "geometry/camera_model.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/image_t.hpp"
 #include "runtime/node.hpp"
 #include "runtime/process_main.hpp"
-#include "vision/camera_model.hpp"
 #include "vision/fruit_detector.hpp"
 #include "vision/tracking.hpp"
 
@@ -19,7 +19,7 @@ namespace harvest::vision {
 struct DetectorNodeConfig {
   std::string camera = "fixed";
   std::string input_channel, output_channel;  // default from `camera`
-  CameraModel calibration;
+  geometry::CameraModel calibration;
   DetectorConfig detector;
   static DetectorNodeConfig from_yaml(const config::Node& node);
 };

@@ -2,7 +2,7 @@
 
 namespace harvest::vision {
 
-PointEstimate reconstruct_in_camera(const CameraModel& cam, double u, double v, double diameter_px,
+PointEstimate reconstruct_in_camera(const geometry::CameraModel& cam, double u, double v, double diameter_px,
                                     const FruitStatistics& fruit, const PixelNoise& noise) {
   const double h = 0.5 * diameter_px;
   const Eigen::Vector2d m = cam.undistort_to_normalized({u, v});

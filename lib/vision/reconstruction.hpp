@@ -19,7 +19,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "vision/camera_model.hpp"
+#include "geometry/camera_model.hpp"
 
 namespace harvest::vision {
 
@@ -41,7 +41,7 @@ struct PointEstimate {
 };
 
 // In the camera frame; nullopt-free: the caller guarantees diameter_px > 0.
-PointEstimate reconstruct_in_camera(const CameraModel& cam, double u, double v, double diameter_px,
+PointEstimate reconstruct_in_camera(const geometry::CameraModel& cam, double u, double v, double diameter_px,
                                     const FruitStatistics& fruit, const PixelNoise& noise);
 
 // Moves an estimate into another frame: p' = T p, C' = R C R^T, plus an

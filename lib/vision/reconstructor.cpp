@@ -11,15 +11,6 @@ namespace harvest::vision {
 
 namespace {
 
-CameraModel read_camera(const config::Node& n, const std::string& fallback) {
-  const auto path = n.file_path("calibration", fallback);
-  try {
-    return CameraModel::load(path);
-  } catch (const std::exception& e) {
-    n.fail("calibration", std::string("a readable camera calibration (") + e.what() + ")");
-  }
-}
-
 void fill_pose_estimate(target_t& t, const PointEstimate& cam, const PointEstimate& base) {
   for (int i = 0; i < 3; ++i) {
     t.position_camera[i] = cam.position[i];
@@ -34,7 +25,7 @@ void fill_pose_estimate(target_t& t, const PointEstimate& cam, const PointEstima
 ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
   ReconstructorConfig c;
   const config::Node fixed = n.child("camera_fixed");
-  c.fixed_camera = read_camera(fixed, "config/cameras/fixed.yaml");
+  c.fixed_camera = geometry::CameraModel::from_config(fixed, "calibration", "config/cameras/fixed.yaml");
   // The thesis's eq. 4-1 matrix has determinant -1 (its fixed camera frame
   // and base frame differ in handedness), and it is the contract.
   const auto extrinsic = fixed.file_path("extrinsic", "config/cameras/fixed_extrinsic.yaml");
@@ -45,7 +36,7 @@ ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
   }
   c.fixed_extrinsic_sigma_m = fixed.get("extrinsic_sigma_m", c.fixed_extrinsic_sigma_m, {0.0, 1.0});
   const config::Node hand = n.child("camera_hand");
-  c.hand_camera = read_camera(hand, "config/cameras/hand.yaml");
+  c.hand_camera = geometry::CameraModel::from_config(hand, "calibration", "config/cameras/hand.yaml");
   c.hand_pose_sigma_m = hand.get("pose_sigma_m", c.hand_pose_sigma_m, {0.0, 1.0});
   c.max_state_gap_us = 1000 * hand.get<int64_t>("max_state_gap_ms", c.max_state_gap_us / 1000, {1, 10'000});
   const config::Node fruit = n.child("fruit");
@@ -72,7 +63,7 @@ void Reconstructor::on_robot_state(const robot_state_t& state) {
   camera_poses_.add(state.header.utime, geometry::to_isometry(state.camera_pose));
 }
 
-targets_t Reconstructor::make_targets(const fruit_detections_t& d, const CameraModel& cam,
+targets_t Reconstructor::make_targets(const fruit_detections_t& d, const geometry::CameraModel& cam,
                                       const Eigen::Isometry3d& cam_to_base, double transform_sigma,
                                       const std::string& camera, std::vector<Estimate3d>& estimates) const {
   targets_t out;

@@ -16,11 +16,11 @@
 #include <optional>
 #include <string>
 
+#include "geometry/camera_model.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/robot_state_t.hpp"
 #include "harvest/targets_t.hpp"
-#include "vision/camera_model.hpp"
 #include "vision/pose_history.hpp"
 #include "vision/reconstruction.hpp"
 #include "vision/tracking.hpp"
@@ -34,10 +34,10 @@ namespace harvest::vision {
 inline constexpr int32_t kUnassociatedIdBase = 100000;
 
 struct ReconstructorConfig {
-  CameraModel fixed_camera;
+  geometry::CameraModel fixed_camera;
   Eigen::Isometry3d fixed_extrinsic = thesis_fixed_camera_extrinsic();  // camera -> base
   double fixed_extrinsic_sigma_m = 0.03;                                // calibration error, isotropic 1 sigma
-  CameraModel hand_camera;
+  geometry::CameraModel hand_camera;
   double hand_pose_sigma_m = 0.005;
   int64_t max_state_gap_us = 100'000;  // robot states around an image at most this far apart
   FruitStatistics fruit;
@@ -66,8 +66,9 @@ class Reconstructor {
   const std::map<int32_t, Estimate3d>& known_fruit() const { return known_; }
 
  private:
-  targets_t make_targets(const fruit_detections_t& d, const CameraModel& cam, const Eigen::Isometry3d& cam_to_base,
-                         double transform_sigma, const std::string& camera, std::vector<Estimate3d>& estimates) const;
+  targets_t make_targets(const fruit_detections_t& d, const geometry::CameraModel& cam,
+                         const Eigen::Isometry3d& cam_to_base, double transform_sigma, const std::string& camera,
+                         std::vector<Estimate3d>& estimates) const;
 
   ReconstructorConfig config_;
   PoseHistory camera_poses_;  // ROBOT_STATE.camera_pose

@@ -46,7 +46,7 @@ std::vector<double> abs_of(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<TruthFruit> project_truth(const sim_truth_t& truth, const CameraModel& camera,
+std::vector<TruthFruit> project_truth(const sim_truth_t& truth, const geometry::CameraModel& camera,
                                       const Eigen::Matrix3d& rotation, const Eigen::Vector3d& position,
                                       bool every_fruit_visible) {
   std::vector<TruthFruit> fruits;

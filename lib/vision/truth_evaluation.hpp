@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "geometry/camera_model.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/log_io.hpp"
-#include "vision/camera_model.hpp"
 #include "vision/detector_node.hpp"
 
 namespace harvest::vision {
@@ -32,7 +32,7 @@ struct TruthEvalOptions {
 // The true camera: intrinsics and distortion at sensor resolution, and the
 // fixed camera's placement p_base = rotation * p_camera + position.
 struct TrueCamera {
-  CameraModel model;
+  geometry::CameraModel model;
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
 };
@@ -50,7 +50,7 @@ struct TruthFruit {
 // position) and near its sensor: each sphere's limb circle projected.
 // `visible` is the simulator's fixed-camera visibility, or 1 if
 // every_fruit_visible (the hand camera has none).
-std::vector<TruthFruit> project_truth(const sim_truth_t& truth, const CameraModel& camera,
+std::vector<TruthFruit> project_truth(const sim_truth_t& truth, const geometry::CameraModel& camera,
                                       const Eigen::Matrix3d& rotation, const Eigen::Vector3d& position,
                                       bool every_fruit_visible);
 

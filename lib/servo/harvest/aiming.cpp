@@ -43,8 +43,8 @@ std::optional<SightLine> sight_line(const ServoConfig& cfg, const targets_t& vie
 Eigen::Vector3d sight_aim(const ServoConfig& cfg, const SightLine& line, double s_start, const Eigen::Vector3d& from) {
   // The hand camera's narrower half field of view, less a margin for the
   // fruit's own size: the whole stretch stays in the image.
-  const CameraIntrinsics& k = cfg.hand_camera;
-  const double half = std::min(std::atan2(k.u0, k.fx), std::atan2(k.v0, k.fy));
+  const geometry::CameraModel& k = cfg.hand_camera;
+  const double half = std::min(std::atan2(k.cx, k.fx), std::atan2(k.cy, k.fy));
   constexpr double kMinHalfSpan = 0.05;  // [rad] a camera narrower than the margin still looks along a stretch
   const double span = 2.0 * std::max(kMinHalfSpan, half - cfg.sight_aim_margin);
   const double s_end = std::abs(s_start - line.near) < std::abs(s_start - line.far) ? line.far : line.near;
@@ -132,7 +132,7 @@ Eigen::Isometry3d inside_workspace(const Workspace& ws, const Eigen::Vector3d& f
   return g;
 }
 
-bool in_hand_view(const CameraIntrinsics& k, const Eigen::Isometry3d& camera, const Eigen::Vector3d& point,
+bool in_hand_view(const geometry::CameraModel& k, const Eigen::Isometry3d& camera, const Eigen::Vector3d& point,
                   double margin) {
   Eigen::Vector2d px;
   return project_point(k, camera.inverse() * point, px) && px.x() >= margin * k.width &&

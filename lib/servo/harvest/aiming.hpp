@@ -63,7 +63,7 @@ Eigen::Isometry3d inside_workspace(const Workspace& ws, const Eigen::Vector3d& f
 
 // `point` projects into the hand camera at `camera` with a margin of
 // `margin` (a share of the image side) left on every side.
-bool in_hand_view(const CameraIntrinsics& k, const Eigen::Isometry3d& camera, const Eigen::Vector3d& point,
+bool in_hand_view(const geometry::CameraModel& k, const Eigen::Isometry3d& camera, const Eigen::Vector3d& point,
                   double margin);
 
 }  // namespace harvest::servo

@@ -21,7 +21,7 @@ std::optional<double> HandTracker::fruit_in_front(rt::Micros now) const {
 
 void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
                                 rt::Micros now) {
-  const CameraIntrinsics& k = cfg_.hand_camera;
+  const geometry::CameraModel& k = cfg_.hand_camera;
   // A fruit filling the image where the gripper axis (the optical axis) meets
   // it, and far larger than the current fruit looks at its estimated depth:
   // a fruit nearer than it, so what the IR reads right in front of the
@@ -31,13 +31,13 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   for (const auto& f : msg.fruits) {
     const auto& b = f.bbox_px;
     if (f.diameter_px >= cfg_.fills_view * msg.image_height &&
-        f.diameter_px > cfg_.front_fruit_size_ratio * expected_px && b[0] <= k.u0 && k.u0 <= b[0] + b[2] &&
-        b[1] <= k.v0 && k.v0 <= b[1] + b[3]) {
+        f.diameter_px > cfg_.front_fruit_size_ratio * expected_px && b[0] <= k.cx && k.cx <= b[0] + b[2] &&
+        b[1] <= k.cy && k.cy <= b[1] + b[3]) {
       fruit_fills_view_rx_ = now;
       // How far its centre lies off the gripper axis [m]: the pixel offset in
       // its own apparent diameters, times the (statistical) fruit diameter.
       fruit_in_front_offset_ =
-          std::hypot(f.u_px - k.u0, f.v_px - k.v0) / std::max(1.0f, f.diameter_px) * fruit.diameter;
+          std::hypot(f.u_px - k.cx, f.v_px - k.cy) / std::max(1.0f, f.diameter_px) * fruit.diameter;
     }
   }
   // Where the current fruit is in this image: near our last centroid while

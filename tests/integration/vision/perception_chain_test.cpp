@@ -12,8 +12,8 @@
 
 #include "../../unit/vision/synthetic_scene.hpp"
 #include "bus.hpp"
+#include "geometry/camera_model.hpp"
 #include "test_support.hpp"
-#include "vision/camera_model.hpp"
 
 namespace ht = harvest::testing;
 using namespace std::chrono_literals;
@@ -23,7 +23,7 @@ namespace {
 
 TEST(PerceptionChain, RenderedFruitComesOutAtItsPlaceInTheBaseFrame) {
   // The world's camera is the software's calibration (config/cameras/fixed.yaml).
-  const CameraModel cam = CameraModel::load(ht::source_path("config/cameras/fixed.yaml"));
+  const geometry::CameraModel cam = geometry::CameraModel::load(ht::source_path("config/cameras/fixed.yaml"));
   const double diameter = 0.0725;  // the statistical diameter of config/vision: depth is unbiased
   const Eigen::Vector3d fruit_cam(0.03, -0.02, 0.75);
   Eigen::Matrix3d r_fixed;  // config/vision/reconstructor.yaml (eq. 4-1)

@@ -13,9 +13,9 @@
 #include <harvest/targets_t.hpp>
 
 #include "bus.hpp"
+#include "geometry/camera_model.hpp"
 #include "runtime/clock.hpp"
 #include "test_support.hpp"
-#include "vision/camera_model.hpp"
 #include "vision/reconstructor.hpp"
 
 namespace ht = harvest::testing;
@@ -26,7 +26,7 @@ namespace {
 
 constexpr double kDiameter = 0.0725;  // config/vision/reconstructor.yaml fruit.diameter_mean_m
 
-fruit_t seen(const CameraModel& cam, const Eigen::Vector3d& p_cam) {
+fruit_t seen(const geometry::CameraModel& cam, const Eigen::Vector3d& p_cam) {
   fruit_t f{};
   const Eigen::Vector2d px = cam.project(p_cam);
   f.id = -1;
@@ -79,8 +79,8 @@ const target_t* near_pixel(const targets_t& t, const fruit_t& f) {
 }
 
 TEST(ReconstructorProcess, BothCamerasEndToEndKeepTheChosenFruit) {
-  const CameraModel fixed_cam = CameraModel::load(ht::source_path("config/cameras/fixed.yaml"));
-  const CameraModel hand_cam = CameraModel::load(ht::source_path("config/cameras/hand.yaml"));
+  const geometry::CameraModel fixed_cam = geometry::CameraModel::load(ht::source_path("config/cameras/fixed.yaml"));
+  const geometry::CameraModel hand_cam = geometry::CameraModel::load(ht::source_path("config/cameras/hand.yaml"));
   // The shipped extrinsic (eq. 4-1): p_base = R p_cam + T.
   Eigen::Matrix3d r_fixed;
   r_fixed << 0, 1, 0, 0, 0, 1, -1, 0, 0;

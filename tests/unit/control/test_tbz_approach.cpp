@@ -47,8 +47,8 @@ s::TbzApproachParams params() {
   cfg.hand_camera.fx = 470;  // deliberately wrong estimate of kA
   cfg.hand_camera.fy = 500;
   cfg.hand_camera.skew = 0;
-  cfg.hand_camera.u0 = 330;
-  cfg.hand_camera.v0 = 230;
+  cfg.hand_camera.cx = 330;
+  cfg.hand_camera.cy = 230;
   auto p = s::tbz_params_from(cfg);
   p.controller.lambda_v = 0.4;
   p.controller.desired_depth_estimate = 0.5;

@@ -11,17 +11,17 @@ namespace {
 // A distortion-free camera at the base origin looking along base z; the fruit
 // `lateral` metres off the axis along x, 0.1 m ahead, its centroid where the
 // pinhole model puts it.
-ApproachInput at_fruit(double lateral, const CameraIntrinsics& k, std::optional<double> forward) {
+ApproachInput at_fruit(double lateral, const geometry::CameraModel& k, std::optional<double> forward) {
   ApproachInput in;
   in.fruit_base = Eigen::Vector3d(lateral, 0.0, 0.1);
-  in.pixel = PixelMeasurement{k.u0 + k.fx * lateral / 0.1, k.v0, 1};
+  in.pixel = PixelMeasurement{k.cx + k.fx * lateral / 0.1, k.cy, 1};
   in.forward_speed = forward;
   return in;
 }
 
-CameraIntrinsics pinhole() {
-  CameraIntrinsics k;
-  k.distortion = {};
+geometry::CameraModel pinhole() {
+  geometry::CameraModel k = kDefaultHandCamera;
+  k.dist = {};
   return k;
 }
 
@@ -71,7 +71,7 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
       ApproachInput in;
       in.now = rt::from_seconds(t);
       in.fruit_base = Eigen::Vector3d(x, 0.0, 0.3);
-      in.pixel = PixelMeasurement{pinhole().u0 + pinhole().fx * x / 0.3, pinhole().v0, in.now};
+      in.pixel = PixelMeasurement{pinhole().cx + pinhole().fx * x / 0.3, pinhole().cy, in.now};
       in.forward_speed = forward;
       out = a.update(in);
     }
@@ -112,7 +112,7 @@ TEST(ReconstructionApproach, CentresTheFruitOnTheGripperAxisNotTheCameraAxis) {
   in.fruit_base = Eigen::Vector3d(0.0, 0.0, 0.2);
   const double x = -0.02 * c - 0.24 * s, z = -0.02 * s + 0.24 * c;
   EXPECT_NEAR(x, -0.02836, 1e-5);
-  in.pixel = PixelMeasurement{pinhole().u0 + pinhole().fx * x / z, pinhole().v0, 1};
+  in.pixel = PixelMeasurement{pinhole().cx + pinhole().fx * x / z, pinhole().cy, 1};
   const ApproachOutput out = a.update(in);
   EXPECT_NEAR(out.error.x(), 0.0, 1e-9);
   EXPECT_NEAR(out.error.y(), 0.0, 1e-9);
@@ -125,7 +125,7 @@ TEST(ReconstructionApproach, CentresTheFruitOnTheGripperAxisNotTheCameraAxis) {
   in.fruit_base = Eigen::Vector3d(0.01, 0.0, 0.2);
   const Eigen::Vector3d pc = in.camera.inverse() * in.fruit_base;
   in.pixel =
-      PixelMeasurement{pinhole().u0 + pinhole().fx * pc.x() / pc.z(), pinhole().v0 + pinhole().fy * pc.y() / pc.z(), 1};
+      PixelMeasurement{pinhole().cx + pinhole().fx * pc.x() / pc.z(), pinhole().cy + pinhole().fy * pc.y() / pc.z(), 1};
   EXPECT_NEAR(b.update(in).twist.linear.x(), 0.02, 1e-9);
 }
 

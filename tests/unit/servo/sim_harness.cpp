@@ -192,7 +192,7 @@ void WorldDouble::publish_hand() {
   bool hidden = spec_.hide_hand_after_s && t >= *spec_.hide_hand_after_s;
   if (hidden && spec_.hide_hand_for_s && t >= *spec_.hide_hand_after_s + *spec_.hide_hand_for_s) hidden = false;
   const Eigen::Isometry3d cam = arm_.camera();
-  const CameraIntrinsics& k = spec_.true_hand;
+  const geometry::CameraModel& k = spec_.true_hand;
   fruit_detections_t det{};
   det.header.utime = now();
   det.header.frame_id = "camera_hand";
@@ -351,8 +351,8 @@ WorldSpec experiment_one() {
   w.true_hand = w.assumed_hand;
   w.true_hand.fx *= 1.04;  // the real lens differs from its calibration
   w.true_hand.fy *= 0.97;
-  w.true_hand.u0 += 6.0;
-  w.true_hand.v0 -= 4.0;
+  w.true_hand.cx += 6.0;
+  w.true_hand.cy -= 4.0;
   // Table 6-4 estimate minus table 6-3 truth: (-237, 1060, -395) - (-228.6, 1066.8, -540.2) mm.
   w.fixed_error = Eigen::Vector3d(-0.0084, -0.0068, 0.1452);
   w.hand_depth_scale = 1.08;

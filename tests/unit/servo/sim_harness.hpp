@@ -78,8 +78,8 @@ struct WorldSpec {
   Eigen::Isometry3d start_tool = Eigen::Isometry3d::Identity();
   double camera_behind_tcp = 0.06;                        // camera-in-hand optical centre behind the tool point [m]
   double ir_behind_tcp = 0.05;                            // IR sensor behind the tool point [m]
-  CameraIntrinsics true_hand;                             // the real camera
-  CameraIntrinsics assumed_hand;                          // the reconstructor's calibration
+  geometry::CameraModel true_hand;                        // the real camera
+  geometry::CameraModel assumed_hand;                     // the reconstructor's calibration
   Eigen::Vector3d fixed_error = Eigen::Vector3d::Zero();  // fixed-camera estimate minus truth [m]
   // The fixed camera's optical centre (thesis eq. 4-1 translation) and a
   // depth error along its line of sight: estimate = C + scale (truth + error - C).

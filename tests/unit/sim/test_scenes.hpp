@@ -11,8 +11,8 @@ inline Scenario one_fruit(const Vec3& fruit = Vec3(0.0, 1.0, 0.0), double diamet
   Scenario s;
   s.name = "unit";
   s.fruit.push_back({fruit, diameter});
-  s.fixed_camera.model = vision::CameraModel::from_thesis(416.8, 383.5, 1.5707963267948966, 159.5, 119.5, 320, 240,
-                                                          {-0.12, 0.05, 0.001, -0.001, 0.0});
+  s.fixed_camera.model = geometry::CameraModel::from_thesis(416.8, 383.5, 1.5707963267948966, 159.5, 119.5, 320, 240,
+                                                            {-0.12, 0.05, 0.001, -0.001, 0.0});
   s.fixed_camera.noise_std = 0.0;
   s.hand_camera = s.fixed_camera;
   s.fixed_camera_truth.rotation << 0, 1, 0, 0, 0, 1, -1, 0, 0;

@@ -215,7 +215,8 @@ TEST(FruitDetector, WholeFruitCentroidAndDiameter) {
 }
 
 TEST(FruitDetector, DepthOfRenderedSpheres200To1200mm) {
-  CameraModel cam = CameraModel::from_thesis(kFx, kFy, std::numbers::pi / 2, 319.5, 239.5, 640, 480);
+  geometry::CameraModel cam =
+      geometry::CameraModel::from_thesis(kFx, kFy, std::numbers::pi / 2, 319.5, 239.5, 640, 480);
   const double diameter = 0.0725;
   for (const bool canopy : {false, true}) {
     DetectorConfig cfg = canopy ? DetectorConfig::canopy() : DetectorConfig::thesis();

@@ -16,12 +16,12 @@
 namespace harvest::vision {
 namespace {
 
-CameraModel pinhole(double fx, double fy) {
-  return CameraModel::from_thesis(fx, fy, std::numbers::pi / 2, 319.5, 239.5, 640, 480);
+geometry::CameraModel pinhole(double fx, double fy) {
+  return geometry::CameraModel::from_thesis(fx, fy, std::numbers::pi / 2, 319.5, 239.5, 640, 480);
 }
 
 TEST(Reconstruction, DepthAndPositionFollowEq6_11And6_12) {
-  const CameraModel cam = pinhole(833.57, 767.02);
+  const geometry::CameraModel cam = pinhole(833.57, 767.02);
   const FruitStatistics fruit{0.0725, 0.003};
   const double u = 400, v = 150, d = 60;
   const PointEstimate e = reconstruct_in_camera(cam, u, v, d, fruit, {1.0, 1.0});
@@ -39,7 +39,7 @@ TEST(Reconstruction, DepthAndPositionFollowEq6_11And6_12) {
 }
 
 TEST(Reconstruction, DistortionIsUndone) {
-  CameraModel cam = pinhole(800, 800);
+  geometry::CameraModel cam = pinhole(800, 800);
   cam.dist = {-0.2, 0.05, 0, 0, 0};
   const Eigen::Vector3d truth(0.12, -0.08, 0.6);
   const double diameter = 0.07;
@@ -101,7 +101,7 @@ TEST(PixelTracker, KeepsIdsAcrossFrames) {
 
 // ---- thesis experiment II (section 6.4.3, table 6-7) ----
 
-fruit_t detection(const CameraModel& cam, const Eigen::Vector3d& p_cam, double diameter_m) {
+fruit_t detection(const geometry::CameraModel& cam, const Eigen::Vector3d& p_cam, double diameter_m) {
   fruit_t f{};
   const Eigen::Vector2d px = cam.project(p_cam);
   f.u_px = static_cast<float>(px.x());

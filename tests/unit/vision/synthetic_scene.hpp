@@ -8,7 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "vision/camera_model.hpp"
+#include "geometry/camera_model.hpp"
 
 namespace harvest::vision::test {
 
@@ -18,8 +18,8 @@ inline const cv::Vec3b kSky(200, 190, 180);
 
 inline cv::Mat3b background(int width, int height) { return cv::Mat3b(height, width, kLeaf); }
 
-inline void render_sphere(cv::Mat3b& img, const CameraModel& cam, const Eigen::Vector3d& centre, double radius,
-                          cv::Vec3b colour = kOrange) {
+inline void render_sphere(cv::Mat3b& img, const geometry::CameraModel& cam, const Eigen::Vector3d& centre,
+                          double radius, cv::Vec3b colour = kOrange) {
   const double c2 = centre.squaredNorm() - radius * radius;
   // Only pixels near the projected silhouette can be hit.
   const Eigen::Vector2d c = cam.project(centre);

@@ -19,8 +19,8 @@ namespace ht = harvest::testing;
 namespace harvest::vision {
 namespace {
 
-CameraModel camera() {
-  CameraModel c;
+geometry::CameraModel camera() {
+  geometry::CameraModel c;
   c.fx = c.fy = 800;
   c.cx = 319.5;
   c.cy = 239.5;
@@ -110,7 +110,7 @@ TEST(TruthEvaluation, DetectionsGoToTheFruitWhoseDiscHoldsThem) {
 // A log with a truth snapshot and one rendered frame of it: the detector
 // finds the fruit at its true place and size.
 TEST(RunTruthEvaluation, ScoresARenderedFruit) {
-  const CameraModel cam = camera();
+  const geometry::CameraModel cam = camera();
   const Eigen::Vector3d centre(0.05, -0.02, 0.8);
   cv::Mat3b img = test::background(cam.width, cam.height);
   test::render_sphere(img, cam, centre, 0.04);

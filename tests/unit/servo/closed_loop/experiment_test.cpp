@@ -23,7 +23,7 @@ TEST(ClosedLoop, ExperimentOneConvergesEveryTime) {
     spec.seed = seed;
     if (seed <= 5) {
       spec.hand_depth_scale = 0.92 + 0.04 * seed;  // depth over- and underestimated
-      spec.true_hand.u0 += 3.0 * (static_cast<double>(seed) - 3.0);
+      spec.true_hand.cx += 3.0 * (static_cast<double>(seed) - 3.0);
     } else {
       // Random calibration errors on top of table 6-4's: fixed-camera
       // extrinsic +-5 cm per axis, hand focal lengths +-5 %, principal point
@@ -33,8 +33,8 @@ TEST(ClosedLoop, ExperimentOneConvergesEveryTime) {
       spec.fixed_error += 0.05 * Eigen::Vector3d(u(rng), u(rng), u(rng));
       spec.true_hand.fx *= 1.0 + 0.05 * u(rng);
       spec.true_hand.fy *= 1.0 + 0.05 * u(rng);
-      spec.true_hand.u0 += 10.0 * u(rng);
-      spec.true_hand.v0 += 10.0 * u(rng);
+      spec.true_hand.cx += 10.0 * u(rng);
+      spec.true_hand.cy += 10.0 * u(rng);
       spec.hand_depth_scale = 1.0 + 0.1 * u(rng);
     }
     Loop loop(spec);

@@ -63,8 +63,8 @@ TEST(Aiming, SightAimLooksAlongAStretchTheHandCameraSeesAtOnce) {
   EXPECT_GE(s, line->near - 1e-9);
   EXPECT_LE(s, line->far + 1e-9);
   // ... and the start of the stretch is within the camera's half field of view less the margin of the aim.
-  const CameraIntrinsics& k = c.hand_camera;
-  const double half = std::min(std::atan2(k.u0, k.fx), std::atan2(k.v0, k.fy)) - c.sight_aim_margin;
+  const geometry::CameraModel& k = c.hand_camera;
+  const double half = std::min(std::atan2(k.cx, k.fx), std::atan2(k.cy, k.fy)) - c.sight_aim_margin;
   const Eigen::Vector3d to_aim = (aim - from).normalized(), to_start = (line->at(line->near) - from).normalized();
   EXPECT_LE(std::acos(to_aim.dot(to_start)), half + 1e-3);
   // A wider margin narrows the stretch: the aim moves toward its start.
@@ -160,8 +160,8 @@ TEST(Aiming, AGoalOutsideTheWorkspaceIsPulledBackAlongTheWayThere) {
 }
 
 TEST(Aiming, InHandViewLeavesTheMarginOnEverySide) {
-  CameraIntrinsics k;
-  k.distortion = {};
+  geometry::CameraModel k = kDefaultHandCamera;
+  k.dist = {};
   const Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();
   EXPECT_TRUE(in_hand_view(k, camera, {0.0, 0.0, 0.5}, 0.2));
   // u = u0 + fx x / z: x = 0.1 at z = 0.5 is 166.7 px right of the centre

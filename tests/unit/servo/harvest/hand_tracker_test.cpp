@@ -12,7 +12,7 @@ namespace {
 // line of sight through the fruit crossing the optical axis at 0.54 rad.
 ServoConfig config() {
   ServoConfig c;
-  c.hand_camera.distortion = {};
+  c.hand_camera.dist = {};
   return c;
 }
 const Eigen::Isometry3d kCamera = Eigen::Isometry3d::Identity();

@@ -1,10 +1,10 @@
-#include "vision/camera_model.hpp"
+#include "geometry/camera_model.hpp"
 
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 
-namespace harvest::vision {
+namespace harvest::geometry {
 
 namespace {
 
@@ -68,6 +68,15 @@ CameraModel CameraModel::load(const std::filesystem::path& file) {
     load_error(file, e.what());
   }
   return c;
+}
+
+CameraModel CameraModel::from_config(const config::Node& n, const std::string& key, const std::string& fallback) {
+  const auto path = n.file_path(key, fallback);
+  try {
+    return load(path);
+  } catch (const std::exception& e) {
+    n.fail(key, std::string("a readable camera calibration (") + e.what() + ")");
+  }
 }
 
 void CameraModel::save(const std::filesystem::path& file) const {
@@ -179,4 +188,4 @@ CameraModel CameraModel::zoomed(double roi_x, double roi_y, double roi_w, double
   return c;
 }
 
-}  // namespace harvest::vision
+}  // namespace harvest::geometry

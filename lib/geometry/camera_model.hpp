@@ -19,7 +19,9 @@
 #include <filesystem>
 #include <string>
 
-namespace harvest::vision {
+#include "config/config.hpp"
+
+namespace harvest::geometry {
 
 struct CameraModel {
   double fx = 1.0;               // A(0,0) [px]
@@ -36,6 +38,11 @@ struct CameraModel {
   // image_width and image_height. Throws std::runtime_error naming the file and
   // the problem.
   static CameraModel load(const std::filesystem::path& file);
+  // load() of the file named by config key `key` (relative to the config
+  // file, `fallback` if absent): the one way every process reads a
+  // calibration, so a file loads the same in each. A bad file fails as a
+  // config::Error naming the key, the file and the problem.
+  static CameraModel from_config(const config::Node& n, const std::string& key, const std::string& fallback);
   // Writes the same format (round-trips through load()).
   void save(const std::filesystem::path& file) const;
 
@@ -69,4 +76,4 @@ struct CameraModel {
   bool has_distortion() const;
 };
 
-}  // namespace harvest::vision
+}  // namespace harvest::geometry

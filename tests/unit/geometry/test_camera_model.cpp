@@ -1,5 +1,3 @@
-#include "vision/camera_model.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,9 +5,10 @@
 #include <numbers>
 #include <opencv2/calib3d.hpp>
 
+#include "geometry/camera_model.hpp"
 #include "test_support.hpp"
 
-namespace harvest::vision {
+namespace harvest::geometry {
 namespace {
 
 CameraModel distorted_camera() {
@@ -157,4 +156,4 @@ TEST(CameraModel, ZoomMapsPixelsLikeResize) {
 }
 
 }  // namespace
-}  // namespace harvest::vision
+}  // namespace harvest::geometry
