@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 
+#include "geometry/envelope.hpp"
 #include "geometry/pose_msg.hpp"
 #include "runtime/channels.hpp"
 
@@ -20,11 +21,6 @@ namespace {
 using canopen::Cia402State;
 using canopen::DriveGoal;
 using canopen::MasterPhase;
-
-Eigen::Vector3d vec3(const config::Node& n, const std::string& key, const std::vector<double>& fallback) {
-  const auto v = n.numbers(key, fallback, 3);
-  return {v[0], v[1], v[2]};
-}
 
 }  // namespace
 
@@ -40,11 +36,15 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   const double quick_stop = root.child("can").get<double>("quick_stop_deceleration_factor", 10.0, {0.5, 50.0});
   for (std::size_t i = 0; i < c.can.drives.size(); ++i)
     c.can.drives[i].quick_stop_deceleration = quick_stop * c.model.joints[i].max_acceleration;
+  // Workspace and speed/acceleration limits: the envelope the controller also reads.
+  const auto envelope = geometry::Envelope::from_config(root, "envelope", "envelope.yaml");
+  c.limits.linear_speed = envelope.max_linear_speed;
+  c.limits.angular_speed = envelope.max_angular_speed;
+  c.limits.linear_acceleration = envelope.max_linear_acceleration;
+  c.limits.angular_acceleration = envelope.max_angular_acceleration;
+  c.workspace.min = envelope.min;
+  c.workspace.max = envelope.max;
   const auto lim = root.child("limits");
-  c.limits.linear_speed = lim.get<double>("max_linear_speed", 0.381, {0.001, 2.0});
-  c.limits.angular_speed = lim.get<double>("max_angular_speed", 1.0, {0.001, 5.0});
-  c.limits.linear_acceleration = lim.get<double>("max_linear_acceleration", 0.5, {0.01, 10.0});
-  c.limits.angular_acceleration = lim.get<double>("max_angular_acceleration", 2.0, {0.01, 20.0});
   c.limits.default_validity = lim.get<int>("default_validity_ms", 100, {10, 1000}) * 1000;
   c.limits.max_validity = lim.get<int>("max_validity_ms", 1000, {10, 10000}) * 1000;
   if (c.limits.default_validity > c.limits.max_validity)
@@ -57,13 +57,9 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.command_limits.non_physical_factor =
       lim.get<double>("non_physical_factor", c.command_limits.non_physical_factor, {1.0, 100.0});
   if (c.command_limits.min_goal_linear_speed > c.limits.linear_speed)
-    lim.fail("min_goal_linear_speed", "a speed no greater than max_linear_speed");
+    lim.fail("min_goal_linear_speed", "a speed no greater than the envelope's max_linear_speed");
   if (c.command_limits.min_goal_angular_speed > c.limits.angular_speed)
-    lim.fail("min_goal_angular_speed", "a speed no greater than max_angular_speed");
-  const auto ws = root.child("workspace");
-  c.workspace.min = vec3(ws, "min", {-2, -2, -2});
-  c.workspace.max = vec3(ws, "max", {2, 2, 2});
-  if ((c.workspace.min.array() >= c.workspace.max.array()).any()) ws.fail("max", "greater than min on every axis");
+    lim.fail("min_goal_angular_speed", "a speed no greater than the envelope's max_angular_speed");
   const auto ctl = root.child("control");
   c.position_gain = ctl.get<double>("position_gain", 5.0, {0.0, 100.0});
   c.orientation_gain = ctl.get<double>("orientation_gain", 5.0, {0.0, 100.0});

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "geometry/envelope.hpp"
+
 namespace harvest::servo {
 
 using config::Range;
@@ -47,12 +49,13 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.tick_period_s = n.get("tick_period_s", c.tick_period_s, {0.001, 0.5});
   c.status_period_s = n.get("status_period_s", c.status_period_s, {0.05, 60.0});
   c.validity_s = n.get("validity_s", c.validity_s, {0.01, 2.0});
-  // Not below the robot link's minimum goal speeds (limits.min_goal_*_speed in
-  // config/arm/robot_link.yaml): it refuses pose goals capped slower than that.
-  c.max_linear_speed = n.get("max_linear_speed", c.max_linear_speed, {0.01, 0.381});
-  c.max_angular_speed = n.get("max_angular_speed", c.max_angular_speed, {0.02, 3.2});
-  c.max_linear_accel = n.get("max_linear_accel", c.max_linear_accel, pos);
-  c.max_angular_accel = n.get("max_angular_accel", c.max_angular_accel, pos);
+  // The robot link's own limits (one file, config/arm/envelope.yaml): the
+  // controller commands at most what the link will carry out.
+  const auto envelope = geometry::Envelope::from_config(n, "envelope", "config/arm/envelope.yaml");
+  c.max_linear_speed = envelope.max_linear_speed;
+  c.max_angular_speed = envelope.max_angular_speed;
+  c.max_linear_accel = envelope.max_linear_acceleration;
+  c.max_angular_accel = envelope.max_angular_acceleration;
   c.ir_switch_distance = n.get("ir_switch_distance", c.ir_switch_distance, pos);
   c.ir_approach_speed = n.get("ir_approach_speed", c.ir_approach_speed, pos);
   c.ir_braking_decel = n.get("ir_braking_decel", c.ir_braking_decel, pos);

@@ -66,6 +66,7 @@ struct ServoConfig {
   double tick_period_s = 0.02;        // command rate (50 Hz)
   double status_period_s = 1.0;       // periodic HARVEST_STATUS
   double validity_s = 0.1;            // validity window of every robot command
+  // From the robot's envelope (config/arm/envelope.yaml); the defaults are its values.
   double max_linear_speed = 0.381;    // [m/s] thesis 15 in/s
   double max_angular_speed = 1.5708;  // [rad/s] thesis: PID2 (pi/2) in HarvestStep4/5
   double max_linear_accel = 1.0;      // [m/s^2]

@@ -1,0 +1,35 @@
+// The robot's envelope: the box the tool centre point may occupy and the
+// Cartesian speed and acceleration limits, in one file (config/arm/envelope.yaml)
+// read by the robot link, which enforces it, and by the servo controller, which
+// plans inside it. One file so the two cannot disagree: a controller aiming at
+// goals the link refuses would fail every pick at the boundary.
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <string>
+
+#include "config/config.hpp"
+
+namespace harvest::geometry {
+
+struct Envelope {
+  Eigen::Vector3d min{-0.9, 0.3, -1.1};   // [m] tool centre point box, base frame
+  Eigen::Vector3d max{0.7, 1.3, 0.3};     // [m]
+  double max_linear_speed = 0.381;        // [m/s] thesis: 15 in/s
+  double max_angular_speed = 1.5708;      // [rad/s] thesis: pi/2 (HarvestStep4/5)
+  double max_linear_acceleration = 1.0;   // [m/s^2]
+  double max_angular_acceleration = 3.0;  // [rad/s^2]
+
+  // The file's keys (workspace.min/max, max_linear_speed, ...), all required:
+  // the envelope has one source, so no reader supplies a default.
+  static Envelope from_yaml(const config::Node& n);
+  // from_yaml() of the file named by config key `key` (relative to the config
+  // file; `fallback` if absent). Unknown keys in the envelope file are refused.
+  static Envelope from_config(const config::Node& n, const std::string& key, const std::string& fallback);
+
+  // Whether the box [lo, hi] lies inside this envelope's box.
+  bool contains_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const;
+};
+
+}  // namespace harvest::geometry
