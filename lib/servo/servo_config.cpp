@@ -1,5 +1,7 @@
 #include "servo/servo_config.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 
 #include "geometry/envelope.hpp"
@@ -110,6 +112,15 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.workspace.max_reach = ws.get("max_reach", c.workspace.max_reach, pos);
   if (!(c.workspace.min.array() < c.workspace.max.array()).all()) ws.fail("max", "every element greater than min");
   if (c.workspace.min_reach >= c.workspace.max_reach) ws.fail("max_reach", "a value greater than min_reach");
+  // Goals outside the link's box would be clipped or refused there: the
+  // controller would aim at fruit it can never reach. Refused at start.
+  if (!envelope.contains_box(c.workspace.min, c.workspace.max))
+    ws.fail("", fmt::format("a box inside the robot envelope's [{:g}, {:g}, {:g}]..[{:g}, {:g}, {:g}] ({}), got "
+                            "[{:g}, {:g}, {:g}]..[{:g}, {:g}, {:g}]",
+                            envelope.min.x(), envelope.min.y(), envelope.min.z(), envelope.max.x(), envelope.max.y(),
+                            envelope.max.z(), n.file_path("envelope", "config/arm/envelope.yaml").string(),
+                            c.workspace.min.x(), c.workspace.min.y(), c.workspace.min.z(), c.workspace.max.x(),
+                            c.workspace.max.y(), c.workspace.max.z()));
 
   // Home: the thesis experiment I start pose (table 6-5), gripper axis along base +y.
   c.home_pose = pose(n.child("home_pose"), make_pose(-0.655, 0.785, -0.251, 0.5, -0.5, -0.5, -0.5));

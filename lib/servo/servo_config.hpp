@@ -20,8 +20,8 @@ inline const geometry::CameraModel kDefaultHandCamera{833.57, 767.02, 0.0, 319.5
 // Axis-aligned box in the base frame plus a reach shell around the base
 // origin: a commanded motion never leaves it, a target outside is skipped.
 struct Workspace {
-  Eigen::Vector3d min{-1.0, 0.3, -1.0};
-  Eigen::Vector3d max{0.8, 1.4, 0.3};
+  Eigen::Vector3d min{-0.9, 0.3, -1.0};
+  Eigen::Vector3d max{0.7, 1.3, 0.3};
   double min_reach = 0.3;
   double max_reach = 1.5;
   bool contains(const Eigen::Vector3d& p, double margin = 0.0) const;

@@ -359,7 +359,8 @@ TEST(RobotLinkProcess, MissingCanInterfaceIsAClearErrorNamingIt) {
 
 // --check-config validates everything a start would, touching no bus: a
 // default validity above the maximum and an unknown bus transport are
-// configuration errors (exit 2) that name the key.
+// configuration errors (exit 2) that name the key; so is a controller box
+// exceeding the robot link's.
 TEST(RobotLinkProcess, CheckConfigRefusesBadValiditiesAndUnknownBusTransports) {
   ht::TempDir tmp;
   const auto check = [&](const std::string& process, const std::string& config, const std::string& assignment) {
@@ -380,6 +381,10 @@ TEST(RobotLinkProcess, CheckConfigRefusesBadValiditiesAndUnknownBusTransports) {
   auto [rc3, out3] = check("harvest-sim-drives", "config/arm/sim_drives.yaml", "bus=udp_multicast:239.1.2.3:7?ttl=x");
   EXPECT_EQ(rc3, 2) << out3;
   EXPECT_NE(out3.find("bad ttl 'x'"), std::string::npos) << out3;
+  // A controller workspace outside the link's envelope: refused at start.
+  auto [rc4, out4] = check("harvest-servo-controller", "config/servo/controller.yaml", "workspace.max=[0.8, 1.4, 0.3]");
+  EXPECT_EQ(rc4, 2) << out4;
+  EXPECT_NE(out4.find("inside the robot envelope's"), std::string::npos) << out4;
 }
 
 }  // namespace

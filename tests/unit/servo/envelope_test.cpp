@@ -1,5 +1,6 @@
 // The controller and the robot link read one envelope (config/arm/envelope.yaml):
-// the same speed and acceleration limits.
+// the same speed and acceleration limits, and a controller workspace box
+// outside the link's is refused when the controller starts.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -24,13 +25,24 @@ arm::RobotLinkConfig link_config(const std::string& override_a = "") {
   return arm::RobotLinkConfig::from_config(doc.root());
 }
 
-TEST(Envelope, ControllerAndLinkShareTheShippedLimits) {
+std::string controller_error(const std::string& a, const std::string& b = "") {
+  try {
+    controller(a, b);
+  } catch (const config::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Envelope, ControllerAndLinkShareTheShippedLimitsAndBox) {
   const auto c = controller();
   const auto l = link_config();
   EXPECT_EQ(c.max_linear_speed, l.limits.linear_speed);
   EXPECT_EQ(c.max_angular_speed, l.limits.angular_speed);
   EXPECT_EQ(c.max_linear_accel, l.limits.linear_acceleration);
   EXPECT_EQ(c.max_angular_accel, l.limits.angular_acceleration);
+  EXPECT_TRUE((c.workspace.min.array() >= l.workspace.min.array()).all());
+  EXPECT_TRUE((c.workspace.max.array() <= l.workspace.max.array()).all());
 }
 
 // One file: a slower envelope slows both.
@@ -47,6 +59,20 @@ TEST(Envelope, OneFileSetsBothProcessesLimits) {
   EXPECT_EQ(l.limits.linear_speed, 0.2);
   EXPECT_EQ(c.max_angular_accel, 2.0);
   EXPECT_EQ(l.limits.angular_acceleration, 2.0);
+}
+
+// The box the controller had before the envelope (x to 0.8, y to 1.4): goals
+// the link refuses. Refused at start, naming both boxes and the envelope file.
+TEST(Envelope, ControllerBoxExceedingTheLinksIsRefusedAtStart) {
+  EXPECT_EQ(controller_error("workspace.max=[0.7, 1.3, 0.3]"), "");  // the link's own faces: inside
+  const std::string e = controller_error("workspace.max=[0.8, 1.4, 0.3]");
+  EXPECT_NE(e.find("workspace: expected a box inside the robot envelope's [-0.9, 0.3, -1.1]..[0.7, 1.3, 0.3]"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("envelope.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("got [-0.9, 0.3, -1]..[0.8, 1.4, 0.3]"), std::string::npos) << e;
+  EXPECT_NE(controller_error("workspace.min=[-1.0, 0.3, -1.0]"), "") << "below the link's x";
+  EXPECT_NE(controller_error("workspace.min=[-0.9, 0.3, -1.2]"), "") << "below the link's z";
 }
 
 }  // namespace

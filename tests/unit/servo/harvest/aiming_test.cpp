@@ -9,7 +9,7 @@
 namespace harvest::servo {
 namespace {
 
-// Default configuration: workspace box x -1..0.8, y 0.3..1.4, z -1..0.3,
+// Default configuration: workspace box x -0.9..0.7, y 0.3..1.3, z -1..0.3,
 // reach 0.3..1.5 m; home at (-0.655, 0.785, -0.251) with the gripper axis
 // along base +y; min_ahead_of_home 0.05 m: pickable means y >= 0.835.
 ServoConfig config() { return ServoConfig::from_yaml(config::Document::load_string("{}").root()); }
@@ -33,7 +33,7 @@ TEST(Aiming, PickableIsInsideTheWorkspaceAndAheadOfTheGripperAtHome) {
 }
 
 // Hand-worked: a line of sight from the base origin along +y is pickable
-// from y = 0.835 (ahead of home) to y = 1.4 (the box), scanned in 5 mm steps.
+// from y = 0.835 (ahead of home) to y = 1.3 (the box), scanned in 5 mm steps.
 TEST(Aiming, SightLineIsThePickablePartOfTheLine) {
   const ServoConfig c = config();
   const targets_t v = view_from({0.0, 0.0, 0.0}, {0.0, 2.0, 0.0});
@@ -41,7 +41,7 @@ TEST(Aiming, SightLineIsThePickablePartOfTheLine) {
   ASSERT_TRUE(line.has_value());
   EXPECT_NEAR(line->direction.y(), 1.0, 1e-12);
   EXPECT_NEAR(line->near, 0.835, 0.0051);
-  EXPECT_NEAR(line->far, 1.4, 0.0051);
+  EXPECT_NEAR(line->far, 1.3, 0.0051);
   EXPECT_TRUE(pickable(c, line->at(line->near)));
   EXPECT_TRUE(pickable(c, line->at(line->far)));
   // No camera pose, or a line that never enters the pickable set: none.
@@ -147,12 +147,12 @@ TEST(Aiming, DetachPullsBackAlongTheAxisWhileTwistingAboutIt) {
 }
 
 TEST(Aiming, AGoalOutsideTheWorkspaceIsPulledBackAlongTheWayThere) {
-  const Workspace ws;  // box y up to 1.4
+  const Workspace ws;  // box y up to 1.3
   Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
   goal.translation() = Eigen::Vector3d(-0.3, 1.8, 0.0);
   const Eigen::Vector3d from(-0.3, 1.0, 0.0);
   const Eigen::Isometry3d g = inside_workspace(ws, from, goal);
-  EXPECT_NEAR(g.translation().y(), 1.4, 1e-6);
+  EXPECT_NEAR(g.translation().y(), 1.3, 1e-6);
   EXPECT_NEAR(g.translation().x(), -0.3, 1e-9);
   EXPECT_TRUE(ws.contains(g.translation()));
   goal.translation() = Eigen::Vector3d(-0.3, 1.2, 0.0);
