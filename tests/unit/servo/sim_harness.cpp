@@ -15,33 +15,6 @@ namespace harvest::servo::testing {
 
 namespace ch = harvest::channels;
 
-// ---------------------------------------------------------------- bus
-
-void SimBus::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
-  const auto* p = static_cast<const uint8_t*>(data);
-  rt::LogRecord r{clock_.now(), channel, std::vector<uint8_t>(p, p + size)};
-  log_.push_back(r);
-  pending_.push_back(std::move(r));
-}
-
-void SimBus::drain() {
-  while (!pending_.empty()) {
-    rt::LogRecord r = std::move(pending_.front());
-    pending_.pop_front();
-    deliver(r.channel, r.data.data(), r.data.size(), clock_.now());
-  }
-}
-
-void SimBus::run_until(rt::Micros t) {
-  while (true) {
-    const auto due = timers_.next_due();
-    if (!due || *due > t) break;
-    timers_.fire_due(*due, [this](rt::Micros d) { clock_.set(d); });
-    drain();
-  }
-  clock_.set(std::max(clock_.now(), t));
-}
-
 // ---------------------------------------------------------------- arm
 
 ArmDouble::ArmDouble(const WorldSpec& spec) : rt::Node("arm-double"), spec_(spec), tool_(spec.start_tool) {}

@@ -1,5 +1,5 @@
 // Closed-loop test harness for the servo controller, all in one process on a
-// manual clock: an in-process bus with the replay runner's ordering rules, a
+// manual clock: rt::SimRunner (the replay runner's delivery order), a
 // kinematic arm double (integrates twists and pose goals, publishes
 // ROBOT_STATE) and a world double (true fruit; synthetic fixed-camera
 // targets, hand-camera detections and targets, IR range and gripper state
@@ -7,7 +7,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-#include <deque>
 #include <optional>
 #include <random>
 #include <string>
@@ -16,56 +15,12 @@
 #include "harvest/gripper_command_t.hpp"
 #include "harvest/robot_command_t.hpp"
 #include "harvest/robot_state_t.hpp"
-#include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
 #include "runtime/node.hpp"
+#include "runtime/sim_runner.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo::testing {
-
-// Mirrors rt::ReplayRunner: timers due at or before a time fire first, one at
-// a time; what nodes publish reaches the other nodes at once, in order.
-class SimBus final : public rt::Dispatcher {
- public:
-  explicit SimBus(rt::Micros start) : rt::Dispatcher(""), clock_(start) {}
-  void start() {
-    attach_all();
-    drain();
-  }
-  void run_until(rt::Micros t);
-  template <class Msg>
-  void inject(const std::string& channel, Msg msg) {
-    std::vector<uint8_t> bytes = rt::encode(msg);
-    publish_bytes(channel, bytes.data(), bytes.size());
-    drain();
-  }
-  void inject_raw(const std::string& channel, const std::vector<uint8_t>& bytes) {
-    publish_bytes(channel, bytes.data(), bytes.size());
-    drain();
-  }
-
-  rt::Micros now() const override { return clock_.now(); }
-  void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
-  void watch_fd(int, std::function<void()>) override { throw std::logic_error("no fds in the harness"); }
-  void unwatch_fd(int) override {}
-  void request_stop(int) override {}
-
-  const std::vector<rt::LogRecord>& log() const { return log_; }
-  template <class Msg>
-  std::vector<std::pair<rt::Micros, Msg>> messages(const std::string& channel) const {
-    std::vector<std::pair<rt::Micros, Msg>> out;
-    for (const auto& r : log_)  // a test's injected garbage is not a message
-      if (r.channel == channel)
-        if (auto m = rt::decode<Msg>(r.data)) out.emplace_back(r.timestamp, std::move(*m));
-    return out;
-  }
-
- private:
-  void drain();
-  rt::ManualClock clock_;
-  std::deque<rt::LogRecord> pending_;
-  std::vector<rt::LogRecord> log_;
-};
 
 struct FruitTruth {
   int id = 0;

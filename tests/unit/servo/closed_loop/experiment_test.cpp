@@ -119,7 +119,7 @@ TEST(ServoConfig, ApproachModeSelectsTheStrategyAndItsInputs) {
   for (const std::string mode : {"reconstruction", "tbz"}) {
     const auto doc = config::Document::load_string("approach_mode: " + mode);
     const ServoConfig cfg = ServoConfig::from_yaml(doc.root());
-    SimBus bus(kT0);
+    rt::SimRunner bus(kT0);
     ServoControllerNode ctrl(cfg);
     bus.add(ctrl);
     bus.start();

@@ -24,11 +24,11 @@ constexpr rt::Micros kT0 = 1'700'000'000'000'000;
 operator_command_t op(int8_t command);
 emergency_stop_t estop(bool engaged, bool clear);
 
-// One closed loop: controller, arm and world on a SimBus.
+// One closed loop: controller, arm and world on an rt::SimRunner.
 struct Loop {
   WorldSpec spec;
   ServoConfig cfg;
-  SimBus bus{kT0};
+  rt::SimRunner bus{kT0};
   ServoControllerNode ctrl;
   ArmDouble arm;
   WorldDouble world;

@@ -1,0 +1,78 @@
+// In-memory runner for tests: nodes on a shared manual clock, messages passed
+// in process, delivered in exactly ReplayRunner's order (sim_runner_test
+// proves it against a replay of the same events):
+//   * run_until(t) fires every timer due up to t at its own due time, one at a
+//     time, each followed by the messages it caused, then sets the clock to t;
+//   * a message (published by a node or injected by the test) is delivered to
+//     every handler of its channel at the current time, after the messages
+//     already waiting, in publication order, before anything else happens.
+// Every message on the bus, injected or published, is kept in order in log(),
+// as a logger on a live bus would record it. One in-memory runner for every
+// test so no test harness drifts from what replay does.
+#pragma once
+
+#include <deque>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "runtime/clock.hpp"
+#include "runtime/dispatcher.hpp"
+#include "runtime/log_io.hpp"
+
+namespace harvest::rt {
+
+class SimRunner : public Dispatcher {
+ public:
+  explicit SimRunner(Micros start, std::string prefix = "") : Dispatcher(std::move(prefix)), clock_(start) {}
+
+  // Attaches the added nodes and delivers what they published on attach.
+  void start();
+  void run_until(Micros t);
+
+  template <class Msg>
+  void inject(const std::string& channel, const Msg& msg) {
+    const std::vector<uint8_t> bytes = encode(msg);
+    inject_raw(channel, bytes);
+  }
+  // Also for bytes that are not a valid message (the runtime drops those).
+  void inject_raw(const std::string& channel, const std::vector<uint8_t>& bytes);
+
+  const std::vector<LogRecord>& log() const { return log_; }
+  // Messages on a channel that decode as Msg, with their time (a test's
+  // injected garbage is not a message).
+  template <class Msg>
+  std::vector<std::pair<Micros, Msg>> messages(const std::string& channel) const {
+    std::vector<std::pair<Micros, Msg>> out;
+    for (const auto& r : log_)
+      if (r.channel == channel)
+        if (auto m = decode<Msg>(r.data)) out.emplace_back(r.timestamp, std::move(*m));
+    return out;
+  }
+  bool stop_requested() const { return stop_requested_; }
+  int exit_code() const { return exit_code_; }
+
+  // Context
+  Micros now() const override { return clock_.now(); }
+  void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
+  void watch_fd(int, std::function<void()>) override {
+    throw std::logic_error("the in-memory runner watches no file descriptors");
+  }
+  void unwatch_fd(int) override {}
+  void request_stop(int exit_code) override {
+    stop_requested_ = true;
+    exit_code_ = exit_code;
+  }
+
+ private:
+  void drain();
+
+  ManualClock clock_;
+  std::deque<LogRecord> pending_;
+  std::vector<LogRecord> log_;
+  bool stop_requested_ = false;
+  int exit_code_ = 0;
+};
+
+}  // namespace harvest::rt
