@@ -92,3 +92,20 @@ function(harvest_fuzz_target name)
     set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/fuzz)
   endif()
 endfunction()
+
+# harvest_generate_from_lcmtypes(OUTPUT <header> SCRIPT <generator.py> COMMENT <text>): a header generated from the
+# message contract (lcmtypes/*.lcm, parsed by lcmtypes/lcm_schema.py); the generator is called as
+# `SCRIPT OUTPUT LCM_FILES...` and re-run when either the script, the parser or a .lcm file changes.
+function(harvest_generate_from_lcmtypes)
+  cmake_parse_arguments(G "" "OUTPUT;SCRIPT;COMMENT" "" ${ARGN})
+  find_program(HARVEST_PYTHON3 python3 REQUIRED)
+  file(GLOB lcm_files CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/lcmtypes/*.lcm)
+  list(SORT lcm_files)
+  get_filename_component(out_dir ${G_OUTPUT} DIRECTORY)
+  add_custom_command(
+    OUTPUT ${G_OUTPUT}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
+    COMMAND ${HARVEST_PYTHON3} ${G_SCRIPT} ${G_OUTPUT} ${lcm_files}
+    DEPENDS ${G_SCRIPT} ${PROJECT_SOURCE_DIR}/lcmtypes/lcm_schema.py ${lcm_files}
+    COMMENT "${G_COMMENT}")
+endfunction()
