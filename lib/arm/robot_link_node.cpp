@@ -1,14 +1,13 @@
 #include "arm/robot_link_node.hpp"
 
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
-
 #include <sched.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "geometry/envelope.hpp"
@@ -48,8 +47,8 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.limits.default_validity = lim.get<int>("default_validity_ms", 100, {10, 1000}) * 1000;
   c.limits.max_validity = lim.get<int>("max_validity_ms", 1000, {10, 10000}) * 1000;
   if (c.limits.default_validity > c.limits.max_validity)
-    lim.fail("default_validity_ms", "a validity no longer than max_validity_ms (" +
-                                        std::to_string(c.limits.max_validity / 1000) + " ms)");
+    lim.fail("default_validity_ms",
+             "a validity no longer than max_validity_ms (" + std::to_string(c.limits.max_validity / 1000) + " ms)");
   c.command_limits.min_goal_linear_speed =
       lim.get<double>("min_goal_linear_speed", c.command_limits.min_goal_linear_speed, {1e-4, 0.1});
   c.command_limits.min_goal_angular_speed =
@@ -66,6 +65,7 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.joint_gain = ctl.get<double>("joint_gain", 5.0, {0.0, 100.0});
   c.enable_timeout = ctl.get<int>("enable_timeout_ms", 3000, {100, 60000}) * 1000;
   c.realtime_priority = ctl.get<int>("realtime_priority", 0, {0, 99});
+  c.authority = security::AuthorityConfig::from_config(root.child("authority"), security::AuthorityConfig::kController);
   return c;
 }
 
@@ -90,8 +90,8 @@ CartesianStep pose_goal_step(const RobotLinkConfig& config, const CartesianTraje
   return cartesian_step(config, q, tool, v, previous, dt);
 }
 
-PoseGoalDryRunner::PoseGoalDryRunner(const RobotLinkConfig& config, CartesianTrajectory trajectory,
-                                     Eigen::VectorXd q, Eigen::VectorXd previous, const DryRunOptions& options)
+PoseGoalDryRunner::PoseGoalDryRunner(const RobotLinkConfig& config, CartesianTrajectory trajectory, Eigen::VectorXd q,
+                                     Eigen::VectorXd previous, const DryRunOptions& options)
     : config_(&config),
       trajectory_(std::move(trajectory)),
       q_(std::move(q)),
@@ -231,7 +231,12 @@ PoseGoalPlan plan_pose_goal(const RobotLinkConfig& config, const CartesianTrajec
 }
 
 RobotLinkNode::RobotLinkNode(RobotLinkConfig config, std::unique_ptr<can::CanBus> bus)
-    : rt::Node("robot_link"), config_(std::move(config)), bus_(std::move(bus)), supervisor_(config_.limits) {
+    : rt::Node("robot_link"),
+      config_(std::move(config)),
+      bus_(std::move(bus)),
+      authority_(config_.authority, config_.authority.load(config_.bus), clock(),
+                 [this](const std::string& counter, int64_t n) { count(counter, n); }),
+      supervisor_(config_.limits) {
   const int n = config_.model.dof();
   q_ = config_.model.home;
   qd_ = Eigen::VectorXd::Zero(n);
@@ -247,9 +252,10 @@ void RobotLinkNode::on_attach() {
     if (::sched_setscheduler(0, SCHED_FIFO, &p) == 0)
       spdlog::info("control loop at SCHED_FIFO priority {}", config_.realtime_priority);
     else
-      spdlog::warn("control loop at normal priority: SCHED_FIFO {} refused ({}); a loaded computer may stall it "
-                   "past the drives' RPDO deadline",
-                   config_.realtime_priority, std::strerror(errno));
+      spdlog::warn(
+          "control loop at normal priority: SCHED_FIFO {} refused ({}); a loaded computer may stall it "
+          "past the drives' RPDO deadline",
+          config_.realtime_priority, std::strerror(errno));
   }
   if (!bus_) bus_ = can::open_bus(config_.bus);  // throws CanError with the reason
   restart_master();
@@ -261,6 +267,7 @@ void RobotLinkNode::on_attach() {
   every(config_.can.sync_period, [this] { tick(); });
   spdlog::info("robot link on {}: {} drives, SYNC every {} us", bus_->describe(), config_.can.drives.size(),
                config_.can.sync_period);
+  spdlog::info("robot link: {}", authority_.describe());
 }
 
 void RobotLinkNode::restart_master() {
@@ -319,8 +326,8 @@ std::string RobotLinkNode::implausible(const harvest::robot_command_t& cmd) cons
     if (!std::isfinite(vmax) || vmax < 0.0 || !std::isfinite(wmax) || wmax < 0.0)
       return "max_linear_speed and max_angular_speed must be 0 (the link's limits) or a positive speed";
     if (vmax > 0.0 && vmax < c.min_goal_linear_speed)
-      return fmt::format("max_linear_speed {:g} m/s is below the minimum {:g} m/s (limits.min_goal_linear_speed)",
-                         vmax, c.min_goal_linear_speed);
+      return fmt::format("max_linear_speed {:g} m/s is below the minimum {:g} m/s (limits.min_goal_linear_speed)", vmax,
+                         c.min_goal_linear_speed);
     if (wmax > 0.0 && wmax < c.min_goal_angular_speed)
       return fmt::format("max_angular_speed {:g} rad/s is below the minimum {:g} rad/s (limits.min_goal_angular_speed)",
                          wmax, c.min_goal_angular_speed);
@@ -330,6 +337,7 @@ std::string RobotLinkNode::implausible(const harvest::robot_command_t& cmd) cons
 
 void RobotLinkNode::on_command(const harvest::robot_command_t& cmd) {
   if (shutting_down_) return;
+  if (!authority_.admit_from_controller("ROBOT_COMMAND", cmd)) return;  // counted and logged by the gate
   if (!supervisor_.may_move()) {
     count("commands_while_stopped");
     return;  // not a limit event: the state already says why nothing moves
@@ -418,8 +426,8 @@ void RobotLinkNode::accept_pose_goal(const harvest::robot_command_t& cmd, const 
   }
   // The dry run runs a bounded slice here (a typical goal's whole dry run) and
   // goes on after each SYNC (continue_planning) while the arm holds.
-  planning_.emplace(Planning{cmd, goal, PoseGoalDryRunner(config_, path, q_, last_cmd_, config_.dry_run), {},
-                             std::nullopt, std::nullopt});
+  planning_.emplace(Planning{
+      cmd, goal, PoseGoalDryRunner(config_, path, q_, last_cmd_, config_.dry_run), {}, std::nullopt, std::nullopt});
   active_ = Active::kPlanning;
   if (planning_->dry_run.run(config_.dry_run.steps_per_period)) decide_after_dry_run();
 }
@@ -499,6 +507,7 @@ void RobotLinkNode::pose_goal_unreachable(const harvest::robot_command_t& cmd, c
 }
 
 void RobotLinkNode::on_estop(const harvest::emergency_stop_t& msg) {
+  if (!authority_.admit_estop(msg)) return;  // a clear nobody may give; an engage always passes
   const bool was = supervisor_.estopped();
   supervisor_.on_emergency_stop(msg.engaged, msg.clear, msg.source + ": " + msg.reason);
   if (supervisor_.estopped() && !was) {
@@ -512,6 +521,7 @@ void RobotLinkNode::on_estop(const harvest::emergency_stop_t& msg) {
 
 void RobotLinkNode::on_operator(const harvest::operator_command_t& msg) {
   if (msg.command != harvest::operator_command_t::RESET_FAULT) return;
+  if (!authority_.admit_from_operator("RESET_FAULT", msg)) return;
   if (!supervisor_.reset_fault()) {
     spdlog::warn("fault reset from {} refused: emergency stop engaged", msg.source);
     return;

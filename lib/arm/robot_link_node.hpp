@@ -21,6 +21,7 @@
 #include "kinematics/diff_ik.hpp"
 #include "runtime/log_limiter.hpp"
 #include "runtime/node.hpp"
+#include "security/authority.hpp"
 
 namespace harvest::arm {
 
@@ -86,6 +87,10 @@ struct RobotLinkConfig {
   // search (at most 9000 iterations) is spread over periods so SYNC stays on
   // time.
   int ik_iterations_per_period = 150;
+  // Whom the link obeys (docs/security.md): ROBOT_COMMAND from the one bound
+  // controller, RESET_FAULT and an e-stop clear from the operators; all
+  // signed with the robot's key (a sim key is refused on socketcan).
+  security::AuthorityConfig authority;
 
   static RobotLinkConfig from_config(const config::Node& root);
 };
@@ -248,6 +253,7 @@ class RobotLinkNode final : public rt::Node {
 
   RobotLinkConfig config_;
   std::unique_ptr<can::CanBus> bus_;
+  security::Authority authority_;
   std::unique_ptr<canopen::Master> master_;
   std::map<std::string, int64_t> mirrored_;  // master_->counters() already counted in the heartbeat
   MotionSupervisor supervisor_;

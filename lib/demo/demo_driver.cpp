@@ -26,6 +26,7 @@
 #include "runtime/checked_subscription.hpp"
 #include "runtime/clock.hpp"
 #include "runtime/log_io.hpp"
+#include "security/authority.hpp"
 #include "servo/operator_command.hpp"
 #include "sim/evaluation.hpp"
 #include "sim/scenario.hpp"
@@ -168,6 +169,9 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
   const auto t0 = std::chrono::steady_clock::now();
   const double deadline_s = scenario.time_limit_s + o.run_margin_s;
   double last_start_sent = -10.0, stop_sent_at = -1.0, final_since = -1.0;
+  // START is signed as an operator with the simulator sets' key (docs/security.md).
+  rt::SystemClock signing_clock;
+  security::Signer operator_signer(security::sim_key(), "operator", signing_clock);
   bool stopped_by_us = false;  // the run ended because the controller finished
   bool exited = false;
   int status = 0;
@@ -186,8 +190,9 @@ RunResult run_once(const DemoOptions& o, const sim::Scenario& scenario, int run,
 
     // START until the controller obeys (it refuses while it has no robot state yet).
     if (!progress.started() && progress.controller_seen() && t - last_start_sent >= 1.0 && stop_sent_at < 0) {
-      const auto msg =
+      auto msg =
           std::get<operator_command_t>(servo::make_operator_message("start", "harvest-demo", "", rt::wall_time_now()));
+      operator_signer.sign(msg);
       lcm.publish(ch::kOperatorCommand, &msg);
       last_start_sent = t;
     }

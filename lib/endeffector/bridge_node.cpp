@@ -47,12 +47,15 @@ BridgeConfig BridgeConfig::from_config(const config::Node& root) {
   c.state_channel = ch.get<std::string>("gripper_state", channels::kGripperState);
   c.command_channel = ch.get<std::string>("gripper_command", channels::kGripperCommand);
   c.estop_channel = ch.get<std::string>("emergency_stop", channels::kEmergencyStop);
+  c.authority = security::AuthorityConfig::from_config(root.child("authority"), security::AuthorityConfig::kController);
   return c;
 }
 
 BridgeNode::BridgeNode(BridgeConfig config)
     : Node("ee-bridge"),
       cfg_(std::move(config)),
+      authority_(cfg_.authority, cfg_.authority.load(), clock(),
+                 [this](const std::string& c, int64_t n) { count(c, n); }),
       link_(cfg_.make_link()),
       endpoint_(link_->describe()),
       gate_(cfg_.max_force_n),
@@ -64,6 +67,7 @@ void BridgeNode::on_attach() {
   advertise(cfg_.ir_channel);
   advertise(cfg_.state_channel);
   subscribe<gripper_command_t>(cfg_.command_channel, [this](const gripper_command_t& cmd) {
+    if (!authority_.admit_from_controller("GRIPPER_COMMAND", cmd)) return;  // counted and logged by the gate
     const auto d = gate_.on_command(cmd);
     if (!d.frame) {
       count("commands_rejected");
@@ -80,6 +84,7 @@ void BridgeNode::on_attach() {
     count("commands_sent");
   });
   subscribe<emergency_stop_t>(cfg_.estop_channel, [this](const emergency_stop_t& msg) {
+    if (!authority_.admit_estop(msg)) return;  // an engage always passes
     const bool was = gate_.stopped();
     const auto stop = gate_.on_emergency_stop(msg);
     if (stop && state_ == Link::kUp) send(*stop);
@@ -87,6 +92,7 @@ void BridgeNode::on_attach() {
       spdlog::warn("emergency stop {}", gate_.stopped() ? "engaged: gripper stopped" : "released");
   });
   every(kSupervisePeriod, [this] { supervise(); });
+  spdlog::info("ee-bridge: {}", authority_.describe());
   set_health(rt::Health::kStarting, "connecting to " + endpoint_);
   connect();
 }

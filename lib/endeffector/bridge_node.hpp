@@ -13,6 +13,7 @@
 #include "endeffector/parser.hpp"
 #include "endeffector/transport.hpp"
 #include "runtime/node.hpp"
+#include "security/authority.hpp"
 
 namespace harvest::endeffector {
 
@@ -27,6 +28,9 @@ struct BridgeConfig {
   double max_force_n = 40.0;
   IrCurve ir_curve = IrCurve::default_curve();
   std::string ir_channel, state_channel, command_channel, estop_channel;
+  // Whom it obeys (docs/security.md): GRIPPER_COMMAND from the bound
+  // controller, an e-stop clear from the operators.
+  security::AuthorityConfig authority;
 
   static BridgeConfig from_config(const config::Node& root);
 };
@@ -53,6 +57,7 @@ class BridgeNode final : public rt::Node {
   std::string rejected_since_last_frame() const;
 
   BridgeConfig cfg_;
+  security::Authority authority_;
   std::unique_ptr<ByteStream> link_;
   std::string endpoint_;
   Parser parser_;

@@ -68,7 +68,7 @@ template <class T>
 concept LcmMessage = requires(T m, const void* buf, int n) {
   { m.decode(buf, 0, n) } -> std::convertible_to<int>;
   { m.getEncodedSize() } -> std::convertible_to<int>;
-  { T::getTypeName() };
+  {T::getTypeName()};
 };
 
 template <class T>
@@ -104,6 +104,9 @@ class Node {
   virtual void on_attach() = 0;
 
   Micros now() const { return ctx().now(); }
+  // The runner's clock as an rt::Clock, for parts a node owns that read time
+  // (security::Authority); valid from construction, readable once attached.
+  const Clock& clock() const { return clock_; }
 
   // Typed subscription. The bytes are checked against the type before they
   // are decoded (runtime/wire_check.hpp); malformed messages (wrong
@@ -122,7 +125,13 @@ class Node {
   // Publish; for messages with a header, seq (per channel) and publish_utime
   // are filled in here. utime, frame_id and source_seq are the node's job.
   template <LcmMessage Msg>
-  void publish(const std::string& channel, Msg& msg);
+  void publish(const std::string& channel, Msg& msg) {
+    publish(channel, msg, [](Msg&) {});
+  }
+  // Same, with `finish(msg)` run after the header is stamped and before the
+  // message is encoded: a command's signature covers the stamped header.
+  template <LcmMessage Msg, class Finish>
+  void publish(const std::string& channel, Msg& msg, Finish&& finish);
 
   // Declare an output channel (call in on_attach); see Context::advertise.
   void advertise(const std::string& channel) { ctx().advertise(channel); }
@@ -150,6 +159,15 @@ class Node {
 
   std::string name_;
   Context* ctx_ = nullptr;
+  class ContextClock final : public Clock {
+   public:
+    explicit ContextClock(const Node* node) : node_(node) {}
+    Micros now() const override { return node_->now(); }
+
+   private:
+    const Node* node_;
+  };
+  ContextClock clock_{this};
   NodeStats stats_;
   Health health_ = Health::kOk;  // nodes with a start-up phase set kStarting themselves
   std::string health_message_;
@@ -181,12 +199,13 @@ void Node::subscribe(const std::string& channel, std::function<void(const Msg&, 
       });
 }
 
-template <LcmMessage Msg>
-void Node::publish(const std::string& channel, Msg& msg) {
+template <LcmMessage Msg, class Finish>
+void Node::publish(const std::string& channel, Msg& msg, Finish&& finish) {
   if constexpr (HasHeader<Msg>) {
     msg.header.seq = next_seq_[channel]++;
     msg.header.publish_utime = now();
   }
+  finish(msg);
   std::vector<uint8_t> bytes(static_cast<std::size_t>(msg.getEncodedSize()));
   msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
   publish_encoded(channel, bytes);

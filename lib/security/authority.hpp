@@ -1,39 +1,105 @@
-// A receiver's command-authority settings, read from its `authority:` config
-// section (docs/security.md):
+// One process's command authority (docs/security.md): its `authority:` config
+// section, and the object that signs what the process sends and checks what
+// it obeys.
 //   authority:
-//     key_file: /etc/harvest/robot.key   # relative paths: to the config file
-//     controller: servo-controller       # the one sender obeyed for motion
-//     operators: operator                # senders obeyed for e-stop clear and RESET_FAULT (comma-separated)
+//     key: sim                           # or a key file (relative paths: to the config file)
+//     sender: servo-controller           # this process's id on what it signs
+//     controller: servo-controller       # the one sender obeyed for motion (robot link, ee-bridge)
+//     operators: operator, console       # senders obeyed for operator commands, e-stop clear, RESET_FAULT
 //     max_age_ms: 1000                   # oldest signing time accepted
 //     max_ahead_ms: 100                  # sender clock ahead of the receiver
 #pragma once
 
 #include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "config/config.hpp"
 #include "security/auth.hpp"
+#include "security/gate.hpp"
 
 namespace harvest::security {
 
+// The key value naming the simulator's well-known key (sim_key()).
+inline constexpr const char* kSimKeyName = "sim";
+
 struct AuthorityConfig {
-  std::filesystem::path key_file;
+  std::string key;  // kSimKeyName, or a key file path (absolute once loaded)
+  std::string sender;
   std::string controller;
-  std::vector<std::string> operators;
+  std::vector<std::string> operators{"operator", "console"};
   rt::Micros max_age_us = 1 * rt::kSecond;
   rt::Micros max_ahead_us = 100 * rt::kMilli;
 
-  // Throws config::Error naming the key when a value is missing or wrong.
-  static AuthorityConfig from_config(const config::Node& authority);
+  // What a process needs from the section beyond the key; a missing part is
+  // a config::Error naming the key.
+  enum Needs : unsigned { kNothingElse = 0, kSender = 1, kController = 2 };
+  static AuthorityConfig from_config(const config::Node& authority, unsigned needs = kNothingElse);
 
   Policy controller_policy() const { return Policy{{controller}, max_age_us, max_ahead_us}; }
   Policy operator_policy() const { return Policy{operators, max_age_us, max_ahead_us}; }
+
+  // The key for a process on `bus` (a CAN bus string, or empty): the sim key
+  // or the key file, loaded; a sim key on a real bus (socketcan) is refused.
+  Key load(const std::string& bus = "") const;
 };
 
-// The key for a receiver on `bus` (a CAN bus string, or empty for none): the
-// key file, loaded; a sim key on a real bus (socketcan) is refused, since the
-// sim key sits in every build directory and test.
-Key load_key_for_bus(const std::filesystem::path& key_file, const std::string& bus);
+// A key named the way configs and tools name it: kSimKeyName for the sim key,
+// else a key file path (load_key's checks and errors).
+Key load_named_key(const std::string& name);
+// The key operator tools sign with unless told: $HARVEST_COMMAND_KEY, else "sim".
+std::string default_command_key();
+
+// A sim key on a socketcan bus throws; `what` names where the key came from.
+void refuse_sim_key_on_real_bus(const Key& key, const std::string& bus, const std::string& what);
+
+// Signs with one Signer (the process's sender id) and gates each kind of
+// command it obeys: one CommandGate per `what` (the counter prefix and log
+// name, e.g. "ROBOT_COMMAND"), made on first use.
+class Authority {
+ public:
+  Authority(AuthorityConfig config, const Key& key, const rt::Clock& clock, CommandGate::CountFn count);
+
+  // Throws std::logic_error when the config names no sender.
+  template <class Msg>
+  void sign(Msg& msg) {
+    if (!signer_) throw std::logic_error("command authority: this process has no authority.sender to sign with");
+    signer_->sign(msg);
+  }
+  template <class Msg>
+  bool admit_from_controller(const std::string& what, const Msg& msg) {
+    return gate(what, config_.controller_policy()).admit(msg);
+  }
+  template <class Msg>
+  bool admit_from_operator(const std::string& what, const Msg& msg) {
+    return gate(what, config_.operator_policy()).admit(msg);
+  }
+  // An e-stop engage is obeyed from anyone (stopping never depends on a
+  // key); a clear only when an operator signed it. A message that does
+  // neither changes nothing and passes.
+  template <class Estop>
+  bool admit_estop(const Estop& e) {
+    if (e.engaged || !e.clear) return true;
+    return admit_from_operator("EMERGENCY_STOP clear", e);
+  }
+
+  const AuthorityConfig& config() const { return config_; }
+  const Key& key() const { return key_; }
+  // "key 1a2b3c4d (sim), signs as X, obeys controller Y, operators A, B": the log line at start.
+  std::string describe() const;
+
+ private:
+  CommandGate& gate(const std::string& what, const Policy& policy);
+
+  AuthorityConfig config_;
+  Key key_;
+  const rt::Clock* clock_;
+  CommandGate::CountFn count_;
+  std::optional<Signer> signer_;
+  std::map<std::string, std::unique_ptr<CommandGate>> gates_;
+};
 
 }  // namespace harvest::security

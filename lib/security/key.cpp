@@ -49,6 +49,16 @@ Key generate_key(KeyKind kind) {
   return k;
 }
 
+Key sim_key() {
+  init_sodium();
+  static const std::string kText = "harvest simulator command key v1: public, refused on a real bus";
+  Key k;
+  k.kind = KeyKind::sim;
+  crypto_generichash(k.bytes.data(), k.bytes.size(), reinterpret_cast<const unsigned char*>(kText.data()), kText.size(),
+                     nullptr, 0);
+  return k;
+}
+
 Key load_key(const std::string& path) {
   init_sodium();
   struct stat st {};

@@ -27,6 +27,13 @@ struct Key {
 // A fresh random key (libsodium's CSPRNG).
 Key generate_key(KeyKind kind);
 
+// The simulator's key: the same 32 bytes on every machine (a hash of a fixed
+// text), so reference logs replay byte-identically on any clone. It is public
+// by construction and authenticates nothing against an attacker who reads
+// this code: simulator sets use it to run the same signing and checking code
+// as the robot, and a robot link on a real bus refuses it (AuthorityConfig::load).
+Key sim_key();
+
 // Reads a key file; throws std::runtime_error naming the file and the fault
 // (missing, unreadable, malformed, wrong length, or readable by group/others).
 Key load_key(const std::string& path);

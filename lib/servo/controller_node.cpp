@@ -7,8 +7,12 @@
 
 namespace harvest::servo {
 
-ServoControllerNode::ServoControllerNode(ServoConfig config, std::string name)
-    : rt::Node(std::move(name)), cfg_(config), machine_(config, make_approach(config)) {
+ServoControllerNode::ServoControllerNode(ServoConfig config, security::AuthorityConfig authority, std::string name)
+    : rt::Node(std::move(name)),
+      cfg_(config),
+      authority_(authority, authority.load(), clock(), [this](const std::string& c, int64_t n) { count(c, n); }),
+      machine_(config, make_approach(config)) {
+  if (authority_.config().sender.empty()) throw std::invalid_argument("servo controller: authority.sender is empty");
   log_health_changes(false);  // the health carries the status summary, which publish_status() logs
 }
 
@@ -25,10 +29,14 @@ void ServoControllerNode::on_attach() {
   subscribe<ir_range_t>(ch::kIrRange, [this](const ir_range_t& m) { emit(machine_.on_ir(m, now())); });
   subscribe<gripper_state_t>(ch::kGripperState,
                              [this](const gripper_state_t& m) { emit(machine_.on_gripper(m, now())); });
-  subscribe<operator_command_t>(ch::kOperatorCommand,
-                                [this](const operator_command_t& m) { emit(machine_.on_operator(m, now())); });
-  subscribe<emergency_stop_t>(ch::kEmergencyStop,
-                              [this](const emergency_stop_t& m) { emit(machine_.on_estop(m, now())); });
+  // Operator commands and an e-stop clear only when an operator signed them
+  // (refusals counted and logged by the gates); an e-stop engage from anyone.
+  subscribe<operator_command_t>(ch::kOperatorCommand, [this](const operator_command_t& m) {
+    if (authority_.admit_from_operator("OPERATOR_COMMAND", m)) emit(machine_.on_operator(m, now()));
+  });
+  subscribe<emergency_stop_t>(ch::kEmergencyStop, [this](const emergency_stop_t& m) {
+    if (authority_.admit_estop(m)) emit(machine_.on_estop(m, now()));
+  });
   // Teach by zooming (approach_mode tbz) steers from the feature tracker's verified correspondences.
   if (auto* tbz = dynamic_cast<TbzApproach*>(&machine_.approach()))
     subscribe<feature_matches_t>(ch::kFeatureMatches, [tbz](const feature_matches_t& m) { tbz->on_matches(m); });
@@ -36,16 +44,18 @@ void ServoControllerNode::on_attach() {
   every(rt::from_seconds(cfg_.status_period_s), [this] { publish_status(); });
   spdlog::info("{}approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", log_prefix(), cfg_.approach_mode,
                cfg_.max_linear_speed, cfg_.ir_switch_distance * 1000.0);
+  spdlog::info("{}{}", log_prefix(), authority_.describe());
   publish_status();
 }
 
 void ServoControllerNode::emit(MachineOutput out) {
   // The robot command first: on an emergency stop nothing may delay it.
   if (out.robot) {
-    publish(channels::kRobotCommand, *out.robot);
+    publish(channels::kRobotCommand, *out.robot, [this](robot_command_t& m) { authority_.sign(m); });
     count(out.robot->type == robot_command_t::TYPE_STOP ? "stop_commands" : "motion_commands");
   }
-  if (out.gripper) publish(channels::kGripperCommand, *out.gripper);
+  if (out.gripper)
+    publish(channels::kGripperCommand, *out.gripper, [this](gripper_command_t& m) { authority_.sign(m); });
   if (!out.log.empty()) spdlog::warn("{}{}", log_prefix(), out.log);
   if (!out.invalid_input.empty()) {
     count("invalid_input");

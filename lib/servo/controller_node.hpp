@@ -7,13 +7,16 @@
 #include <string>
 
 #include "runtime/node.hpp"
+#include "security/authority.hpp"
 #include "servo/harvest_machine.hpp"
 
 namespace harvest::servo {
 
 class ServoControllerNode final : public rt::Node {
  public:
-  explicit ServoControllerNode(ServoConfig config, std::string name = "servo-controller");
+  // `authority`: the key it signs ROBOT_COMMAND and GRIPPER_COMMAND with and
+  // its sender id; whom it obeys for OPERATOR_COMMAND and an e-stop clear.
+  ServoControllerNode(ServoConfig config, security::AuthorityConfig authority, std::string name = "servo-controller");
 
   const HarvestMachine& machine() const { return machine_; }
 
@@ -25,6 +28,7 @@ class ServoControllerNode final : public rt::Node {
   void publish_status();
 
   ServoConfig cfg_;
+  security::Authority authority_;
   HarvestMachine machine_;
   std::string last_summary_;
   rt::LogLimiter invalid_log_;  // invalid inputs are logged at most once a second

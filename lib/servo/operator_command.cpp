@@ -66,8 +66,14 @@ std::string operator_source(const std::string& tool) {
 
 int default_repeat(const std::string& verb) { return verb.rfind("estop", 0) == 0 ? 3 : 1; }
 
-bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, const OperatorMessage& msg, int repeat) {
+void sign_operator_message(OperatorMessage& msg, security::Signer& signer) {
+  std::visit([&](auto& m) { signer.sign(m); }, msg);
+}
+
+bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, OperatorMessage msg, int repeat,
+                           security::Signer& signer) {
   for (int i = 0; i < repeat; ++i) {
+    sign_operator_message(msg, signer);
     int rc = 0;
     if (const auto* e = std::get_if<emergency_stop_t>(&msg))
       rc = lcm.publish(prefix + channels::kEmergencyStop, e);
@@ -85,8 +91,8 @@ Acknowledgement acknowledgement(const std::string& verb, const std::string& sour
   if (verb == "estop-clear") return {status.estop ? AckState::kWaiting : AckState::kAccepted, status.summary};
   if (has("(from " + source + ")") && has("command refused")) return {AckState::kRefused, status.summary};
   static const std::map<std::string, std::string> accepted{
-      {"start", "started by "},   {"pause", "paused by "},  {"resume", "resumed by "},
-      {"abort", "aborted by "},   {"home", "homing ("},     {"reset-fault", "fault reset by "}};
+      {"start", "started by "}, {"pause", "paused by "}, {"resume", "resumed by "},
+      {"abort", "aborted by "}, {"home", "homing ("},    {"reset-fault", "fault reset by "}};
   const auto it = accepted.find(verb);
   if (it != accepted.end() && has(it->second + source)) return {AckState::kAccepted, status.summary};
   return {AckState::kWaiting, status.summary};

@@ -9,6 +9,7 @@
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/operator_command_t.hpp"
 #include "runtime/clock.hpp"
+#include "security/auth.hpp"
 
 namespace lcm {
 class LCM;
@@ -34,11 +35,16 @@ std::string operator_source(const std::string& tool);
 // its release (UDP multicast may drop a datagram), one of anything else.
 int default_repeat(const std::string& verb);
 
+// Signs `msg` (docs/security.md: the receivers obey operator commands and an
+// e-stop clear only when signed by an operator they know).
+void sign_operator_message(OperatorMessage& msg, security::Signer& signer);
+
 // Publishes `msg` on PREFIX + OPERATOR_COMMAND or EMERGENCY_STOP, `repeat`
-// copies 20 ms apart. The one path every operator front end (harvest-operator,
-// harvest-console) sends through, so command authentication is added here
-// once. Returns false when a publish fails.
-bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, const OperatorMessage& msg, int repeat);
+// copies 20 ms apart, each signed afresh (a receiver refuses a repeated seq
+// as a replay). The one path every operator front end (harvest-operator,
+// harvest-console) sends through. Returns false when a publish fails.
+bool send_operator_message(lcm::LCM& lcm, const std::string& prefix, OperatorMessage msg, int repeat,
+                           security::Signer& signer);
 
 // The controller's reply to one command, read from HARVEST_STATUS (it
 // publishes one at once on every operator command): the summary names the

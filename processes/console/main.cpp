@@ -22,6 +22,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -33,6 +34,7 @@
 #include "runtime/clock.hpp"
 #include "runtime/rate_gate.hpp"
 #include "runtime/wire_check.hpp"
+#include "security/authority.hpp"
 
 namespace {
 
@@ -168,7 +170,21 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--www", www, "folder of the page's files")->capture_default_str();
   app.add_option("--stats-s", stats_s, "print the console's CPU share and frame rates every S seconds (0: never)");
+  std::string key_name = harvest::security::default_command_key(), sender = "console";
+  app.add_option(
+      "--key", key_name,
+      "command key the buttons sign with: 'sim' or the robot's key file (default $HARVEST_COMMAND_KEY or sim)");
+  app.add_option("--sender", sender, "sender id it signs as (one of the receivers' authority.operators)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  harvest::rt::SystemClock signing_clock;
+  std::optional<harvest::security::Signer> signer;
+  try {
+    signer.emplace(harvest::security::load_named_key(key_name), sender, signing_clock);
+  } catch (const std::exception& e) {
+    std::cerr << "harvest-console: " << e.what() << "\n";
+    return 2;
+  }
 
   lcm::LCM lcm(url);
   if (!lcm.good()) {
@@ -296,7 +312,7 @@ int main(int argc, char** argv) {
         std::lock_guard lock(shared.m);
         msg = shared.tracker.command(verb, now_us());
       }
-      const bool ok = servo::send_operator_message(lcm, prefix, msg, servo::default_repeat(verb));
+      const bool ok = servo::send_operator_message(lcm, prefix, msg, servo::default_repeat(verb), *signer);
       std::cout << "harvest-console: " << (ok ? "sent " : "FAILED to send ") << verb << " as "
                 << shared.tracker.source() << std::endl;
       if (!ok) {

@@ -3,8 +3,8 @@
 //   harvest-keygen PATH [--sim] [--force | --keep]
 // Writes 32 random bytes as a mode-0600 key file and prints its id. A robot
 // key (the default) is made once per robot and copied only to the hosts that
-// command it; --sim marks a key for simulator sets and tests, which a robot
-// link on a real CAN bus refuses. --keep leaves a valid existing key of that
+// command it; --sim writes the simulator's well-known key (the same on every
+// machine, security::sim_key), which a robot link on a real CAN bus refuses. --keep leaves a valid existing key of that
 // kind alone (the build's sim key). Exit codes: 0 written (or kept), 1 cannot
 // write (exists without --force, directory missing, an existing file that is
 // no key of that kind with --keep, ...), 2 bad command line.
@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
       std::cout << "kept " << sec::to_string(kind) << " key " << old.id() << " in " << path << "\n";
       return 0;
     }
-    sec::Key key = sec::generate_key(kind);
+    const sec::Key key = sim ? sec::sim_key() : sec::generate_key(kind);
     sec::write_key(path, key, force);
     std::cout << "wrote " << sec::to_string(key.kind) << " key " << key.id() << " to " << path << "\n";
   } catch (const std::exception& e) {

@@ -24,6 +24,7 @@
 #include "kinematics/chain.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/clock.hpp"
+#include "signing.hpp"
 #include "simdrive/sim_drives_node.hpp"
 #include "test_support.hpp"
 
@@ -126,7 +127,8 @@ TEST(RobotLinkKill, DrivesStopTheToolWithin100MsAnd20MmOfTheLinksLastFrame) {
     for (int64_t seq = 0; commanding; ++seq) {
       c.header.seq = seq;
       c.header.utime = harvest::rt::wall_time_now();
-      lcm.publish(ch::kRobotCommand, &c);
+      const auto signed_c = harvest::testing::as_sent_by_its_sender(c);
+      lcm.publish(ch::kRobotCommand, &signed_c);
       std::this_thread::sleep_for(20ms);
     }
   });

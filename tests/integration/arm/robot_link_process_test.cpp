@@ -12,15 +12,18 @@
 #include <atomic>
 #include <harvest/emergency_stop_t.hpp>
 #include <harvest/operator_command_t.hpp>
+#include <harvest/process_status_t.hpp>
 #include <harvest/robot_command_t.hpp>
 #include <harvest/robot_state_t.hpp>
 #include <harvest/sim_drive_fault_t.hpp>
 #include <lcm/lcm-cpp.hpp>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
 
 #include "runtime/channels.hpp"
+#include "signing.hpp"
 #include "test_support.hpp"
 
 namespace ht = harvest::testing;
@@ -62,18 +65,18 @@ class ArmProcesses : public ::testing::Test {
                                              ht::source_path("config/arm/sim_drives.yaml"), "--set", "bus=" + bus_,
                                              "--lcm-url", url_, "--no-netcheck"},
                     tmp_ / "sim-drives.log");
-    link_.emplace(std::vector<std::string>{ht::bin("harvest-robot-link"), "--config",
-                                           ht::source_path("config/arm/robot_link.yaml"), "--set", "bus=" + bus_,
-                                           // Two processes per test, several tests at once on a shared
-                                           // 2-core CI machine: a PDO gap of 100 ms (the shipped watchdog,
-                                           // tested on a manual clock in arm_test) happens there without
-                                           // any fault. These tests are about the stop paths. So
-                                           // would the drives' own 25 ms RPDO deadline, tested on a
-                                           // manual clock and by robot_link_kill_test.
-                                           "--set", "can.pdo_timeout_ms=300", "--set", "can.drive_rpdo_timeout_ms=200",
-                                           "--set", "can.drive_heartbeat_timeout_ms=300", "--lcm-url", url_,
-                                           "--no-netcheck"},
-                  tmp_ / "robot-link.log");
+    link_.emplace(
+        std::vector<std::string>{ht::bin("harvest-robot-link"), "--config",
+                                 ht::source_path("config/arm/robot_link.yaml"), "--set", "bus=" + bus_,
+                                 // Two processes per test, several tests at once on a shared
+                                 // 2-core CI machine: a PDO gap of 100 ms (the shipped watchdog,
+                                 // tested on a manual clock in arm_test) happens there without
+                                 // any fault. These tests are about the stop paths. So
+                                 // would the drives' own 25 ms RPDO deadline, tested on a
+                                 // manual clock and by robot_link_kill_test.
+                                 "--set", "can.pdo_timeout_ms=300", "--set", "can.drive_rpdo_timeout_ms=200", "--set",
+                                 "can.drive_heartbeat_timeout_ms=300", "--lcm-url", url_, "--no-netcheck"},
+        tmp_ / "robot-link.log");
     ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_IDLE; }, 15s))
         << "the drives never became enabled\n"
         << outputs();
@@ -136,7 +139,8 @@ class ArmProcesses : public ::testing::Test {
   template <class Msg>
   void send(const std::string& channel, const Msg& m) {
     std::lock_guard<std::mutex> lock(send_mutex_);
-    lcm_->publish(channel, &m);
+    const Msg signed_msg = harvest::testing::as_sent_by_its_sender(m);
+    lcm_->publish(channel, &signed_msg);
   }
 
   // Sends a twist every 20 ms from a thread, as the servo controller does.
@@ -273,6 +277,118 @@ TEST_F(ArmProcesses, EmergencyStopStopsTheArm) {
   EXPECT_NE(latest()->fault_text.find("red button"), std::string::npos) << latest()->fault_text;
 }
 
+// Command authority over real processes (issue 16 item 4, docs/security.md):
+// an attacker on the host without the key publishes over LCM what it can make
+// or capture: unsigned twists, twists signed with another key or as another
+// sender, a 1 h old signed twist, a captured signed twist replayed, an e-stop
+// clear and a RESET_FAULT signed by nobody (source "attacker"). The link
+// stays alive, the arm does not move, and each refusal is counted on
+// PROCESS_STATUS. An unsigned e-stop engage still stops it.
+TEST_F(ArmProcesses, CommandAuthorityRefusesForgedCommandsOverLcm) {
+  // The link's counters as its PROCESS_STATUS reports them.
+  struct StatusWatch {
+    std::mutex mutex;
+    std::map<std::string, int64_t> counters;
+    void on_status(const lcm::ReceiveBuffer*, const std::string&, const harvest::process_status_t* m) {
+      if (m->process != "robot-link") return;
+      std::lock_guard<std::mutex> lock(mutex);
+      for (int i = 0; i < m->num_counters; ++i) counters[m->counter_names[i]] = m->counter_values[i];
+    }
+  } watch;
+  lcm::LCM status_lcm(url_);
+  ASSERT_TRUE(status_lcm.good());
+  status_lcm.subscribe(ch::kProcessStatus, &StatusWatch::on_status, &watch);
+  std::atomic<bool> listening{true};
+  std::thread status_thread([&] {
+    while (listening) status_lcm.handleTimeout(20);
+  });
+  const auto counter = [&](const std::string& name) {
+    std::lock_guard<std::mutex> lock(watch.mutex);
+    return watch.counters.count(name) ? watch.counters.at(name) : int64_t{0};
+  };
+
+  harvest::robot_command_t twist{};
+  twist.type = harvest::robot_command_t::TYPE_TWIST;
+  twist.validity_us = 100'000;
+  twist.twist.linear[2] = 0.381;
+  harvest::rt::SystemClock wall;
+  harvest::rt::ManualClock hour_ago(harvest::rt::wall_time_now() - 3600 * harvest::rt::kSecond);
+  ht::CommandSigner other_key(ht::kController, nullptr,
+                              harvest::security::generate_key(harvest::security::KeyKind::sim));
+  ht::CommandSigner impostor("attacker");
+  ht::CommandSigner old(ht::kController, &hour_ago);
+  const auto captured = ht::live_controller()(twist);
+  // The captured one is obeyed once (the real controller sent it), then stopped by the controller.
+  {
+    std::lock_guard<std::mutex> lock(send_mutex_);
+    lcm_->publish(ch::kRobotCommand, &captured);
+  }
+  std::this_thread::sleep_for(30ms);
+  harvest::robot_command_t stop{};
+  stop.type = harvest::robot_command_t::TYPE_STOP;
+  const std::size_t stopped_from = count();
+  send(ch::kRobotCommand, stop);
+  ASSERT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_IDLE; }, 5s, stopped_from));
+  std::this_thread::sleep_for(200ms);  // at rest
+  const robot_state_t before = *latest();
+  const int pid = link_->pid();
+
+  lcm::LCM attacker(url_);
+  ASSERT_TRUE(attacker.good());
+  harvest::emergency_stop_t clear{};
+  clear.clear = true;
+  clear.source = "attacker";
+  harvest::operator_command_t reset{};
+  reset.command = harvest::operator_command_t::RESET_FAULT;
+  reset.source = "attacker";
+  for (int i = 0; i < 4; ++i) {  // the captured one again, inside its validity window
+    attacker.publish(ch::kRobotCommand, &captured);
+    std::this_thread::sleep_for(50ms);
+  }
+  for (int i = 0; i < 16; ++i) {  // then what it can make without the key
+    const harvest::robot_command_t forged[] = {twist, other_key(twist), impostor(twist), old(twist)};
+    attacker.publish(ch::kRobotCommand, &forged[i % 4]);
+    if (i % 4 == 0) {
+      attacker.publish(ch::kEmergencyStop, &clear);
+      attacker.publish(ch::kOperatorCommand, &reset);
+    }
+    std::this_thread::sleep_for(50ms);
+  }
+  std::this_thread::sleep_for(1500ms);  // PROCESS_STATUS comes once a second
+  const robot_state_t after = *latest();
+  EXPECT_TRUE(link_->running()) << outputs();
+  EXPECT_EQ(link_->pid(), pid);
+  EXPECT_GT(after.header.seq, before.header.seq) << "still publishing";
+  const double moved = (tool_position(after) - tool_position(before)).norm();
+  std::printf(
+      "[ forged commands ] tool moved %.3g m; refused: unsigned %lld, bad MAC %lld, unknown sender %lld, "
+      "stale %lld, replayed %lld, e-stop clear %lld, RESET_FAULT %lld\n",
+      moved, (long long)counter("robot_command_unsigned"), (long long)counter("robot_command_bad_mac"),
+      (long long)counter("robot_command_unknown_sender"), (long long)counter("robot_command_stale"),
+      (long long)counter("robot_command_replayed"), (long long)counter("emergency_stop_clear_refused"),
+      (long long)counter("reset_fault_refused"));
+  EXPECT_LT(moved, 1e-6) << "a forged command moved the arm";
+  EXPECT_EQ(after.mode, +robot_state_t::MODE_IDLE) << after.fault_text;
+  // UDP on loopback may drop a datagram under load: most of each kind arrive.
+  for (const char* c : {"robot_command_unsigned", "robot_command_bad_mac", "robot_command_unknown_sender",
+                        "robot_command_stale", "robot_command_replayed"})
+    EXPECT_GE(counter(c), 3) << c;
+  EXPECT_GE(counter("emergency_stop_clear_refused"), 3);
+  EXPECT_GE(counter("reset_fault_refused"), 3);
+
+  // An e-stop engage needs no key.
+  harvest::emergency_stop_t engage{};
+  engage.engaged = true;
+  engage.source = "anyone";
+  engage.reason = "unsigned engage";
+  const std::size_t engage_from = count();
+  attacker.publish(ch::kEmergencyStop, &engage);
+  EXPECT_TRUE(wait_for([](const robot_state_t& s) { return s.mode == +robot_state_t::MODE_ESTOP; }, 5s, engage_from))
+      << outputs();
+  listening = false;
+  status_thread.join();
+}
+
 // A pose goal the straight path cannot complete and no IK solution reaches
 // (far toward the tree, the gripper turned back toward the base): the link
 // dry-runs it, then runs the IK in slices after each SYNC for 60 periods and
@@ -337,8 +453,8 @@ TEST_F(ArmProcesses, PythonCanPeerReadsOurCanopenTrafficAndItsNmtStopIsHandled) 
       tmp_ / "peer.log");
   ASSERT_EQ(peer.wait(15s), 0) << peer.output() << outputs();
   ASSERT_TRUE(wait_for(
-      [](const robot_state_t& s) { return (s.fault_flags & kFlagForeign) && s.mode == robot_state_t::MODE_FAULT; },
-      5s, from))
+      [](const robot_state_t& s) { return (s.fault_flags & kFlagForeign) && s.mode == robot_state_t::MODE_FAULT; }, 5s,
+      from))
       << peer.output() << outputs();
   EXPECT_NE(latest()->fault_text.find("joint 4 (node 4): NMT stop from another master"), std::string::npos)
       << latest()->fault_text;

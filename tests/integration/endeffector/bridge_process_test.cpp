@@ -20,6 +20,7 @@
 #include "endeffector/board_emulator.hpp"
 #include "endeffector/board_server.hpp"
 #include "runtime/clock.hpp"
+#include "signing.hpp"
 #include "test_support.hpp"
 
 using namespace harvest;
@@ -158,7 +159,10 @@ class Bus {
     std::lock_guard<std::mutex> lock(mutex_);
     return statuses_.size();
   }
-  void publish(const gripper_command_t& c) { lcm_.publish("GRIPPER_COMMAND", &c); }
+  void publish(const gripper_command_t& c) {
+    const auto signed_c = harvest::testing::as_sent_by_its_sender(c);
+    lcm_.publish("GRIPPER_COMMAND", &signed_c);
+  }
 
  private:
   void on_ir(const lcm::ReceiveBuffer*, const std::string&, const ir_range_t* m) {

@@ -27,6 +27,7 @@
 #include <thread>
 
 #include "runtime/channels.hpp"
+#include "signing.hpp"
 #include "sim/ports.hpp"
 #include "test_support.hpp"
 
@@ -101,10 +102,10 @@ class SimDevices : public ::testing::Test {
     ASSERT_TRUE(ht::eventually([&] { return truth().has_value(); }, 15s)) << outputs();
     // The drives' own 25 ms RPDO deadline would stop the arm when the shared,
     // loaded test machine stalls the link; these tests are about the devices.
-    link_.emplace(args({ht::bin("harvest-robot-link"), "--config", ht::source_path("config/arm/robot_link.yaml"),
-                        "--set", "bus=" + bus_, "--set", "can.drive_rpdo_timeout_ms=200", "--set",
-                        "can.drive_heartbeat_timeout_ms=300"}),
-                  tmp_ / "robot-link.log");
+    link_.emplace(
+        args({ht::bin("harvest-robot-link"), "--config", ht::source_path("config/arm/robot_link.yaml"), "--set",
+              "bus=" + bus_, "--set", "can.drive_rpdo_timeout_ms=200", "--set", "can.drive_heartbeat_timeout_ms=300"}),
+        tmp_ / "robot-link.log");
     std::vector<std::string> bridge{ht::bin("harvest-ee-bridge"), "--config",
                                     ht::source_path("config/endeffector/ee-bridge.yaml"), "--set",
                                     "link.tcp.port=" + std::to_string(port_)};
@@ -197,7 +198,8 @@ class SimDevices : public ::testing::Test {
   template <class Msg>
   void send(const std::string& channel, const Msg& m) {
     std::lock_guard<std::mutex> lock(send_mutex_);
-    lcm_->publish(channel, &m);
+    const Msg signed_msg = harvest::testing::as_sent_by_its_sender(m);
+    lcm_->publish(channel, &signed_msg);
   }
 
   void start_twist(double vx, double vy, double vz) {

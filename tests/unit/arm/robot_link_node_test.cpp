@@ -25,6 +25,7 @@
 #include "runtime/channels.hpp"
 #include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
+#include "signing.hpp"
 #include "simdrive/sim_drives_node.hpp"
 
 namespace harvest::arm {
@@ -103,11 +104,23 @@ class Rig final : public rt::Dispatcher {
   void unwatch_fd(int) override {}
   void request_stop(int) override {}
 
+  // Commands go in signed as the shipped config expects: motion by the
+  // controller, the rest by an operator (docs/security.md).
   template <class Msg>
-  void inject(const std::string& channel, const Msg& msg) {
+  void inject(const std::string& channel, Msg msg) {
+    if constexpr (std::is_same_v<Msg, harvest::robot_command_t>)
+      msg = controller_(msg);
+    else if constexpr (std::is_same_v<Msg, harvest::operator_command_t> ||
+                       std::is_same_v<Msg, harvest::emergency_stop_t>)
+      msg = operator_(msg);
+    inject_as_is(channel, msg);
+  }
+  template <class Msg>
+  void inject_as_is(const std::string& channel, const Msg& msg) {
     const auto bytes = rt::encode(msg);
     deliver(channel, bytes.data(), bytes.size(), now_);
   }
+  const rt::Clock& clock() const { return clock_; }
 
   // Runs for `seconds` of simulated time; `each_ms` (if set) runs every millisecond first.
   void run(double seconds, const std::function<void()>& each_ms = {}) {
@@ -182,6 +195,9 @@ class Rig final : public rt::Dispatcher {
   std::unique_ptr<simdrive::SimDriveSet> drives_;
   std::unique_ptr<RobotLinkNode> node_;
   rt::Micros now_ = kStart;
+  harvest::testing::RunnerClock clock_{*this};
+  harvest::testing::CommandSigner controller_{harvest::testing::kController, &clock_};
+  harvest::testing::CommandSigner operator_{harvest::testing::kOperator, &clock_};
   std::vector<robot_state_t> states_;
   std::function<void(const robot_state_t&)> on_state_;
   std::function<void()> on_readable_;
@@ -501,6 +517,15 @@ void expect_fault_stop(const std::function<void(Rig&)>& inject, int32_t flag, co
     repair(rig);
     rig.run(0.1, cmd);  // whatever the drive says when it is back is seen before the reset
   }
+  // Only an operator re-enables the drives: an unsigned RESET_FAULT, or one
+  // signed by the controller, leaves the fault latched (and is counted).
+  harvest::testing::CommandSigner controller(harvest::testing::kController, &rig.clock());
+  rig.inject_as_is(ch::kOperatorCommand, reset_fault());
+  rig.inject_as_is(ch::kOperatorCommand, controller(reset_fault()));
+  rig.run(0.3, cmd);
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_FAULT) << "an unauthorised RESET_FAULT re-enabled the drives";
+  const auto& counters = rig.node().stats().counters;
+  EXPECT_EQ(counters.count("reset_fault_refused") ? counters.at("reset_fault_refused") : 0, 2);
   rig.inject(ch::kOperatorCommand, reset_fault());
   ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_MOVING; }, 2.0, cmd))
       << rig.describe_last();
@@ -553,20 +578,32 @@ TEST(RobotLinkNode, PdoLossStopsTheArm) {
 // ---- CAN peers checked (issue 16): frames and states the link did not cause.
 
 TEST(RobotLinkNode, ForgedRpdoFromAnotherMasterStopsTheArmUntilReset) {
-  expect_fault_stop([](Rig& r) { r.forge(0x203, {0x0F, 0x00, 0x10, 0x27, 0x00, 0x00}); }, kFlagForeign,
-                    "joint 3 (node 3): an RPDO 0x203 we did not send (another master on the bus)");
+  expect_fault_stop(
+      [](Rig& r) {
+        r.forge(0x203, {0x0F, 0x00, 0x10, 0x27, 0x00, 0x00});
+      },
+      kFlagForeign, "joint 3 (node 3): an RPDO 0x203 we did not send (another master on the bus)");
 }
 
 // Stopped or reset by another master's NMT frame: RESET_FAULT runs that
 // drive's start-up again (a reset drive has lost its configuration) and the
 // arm moves again.
 TEST(RobotLinkNode, NmtStopOrResetByAnotherMasterStopsTheArmAndResetFaultRestartsTheDrive) {
-  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x02, 4}); }, kFlagForeign,
-                    "joint 4 (node 4): NMT stop from another master");
-  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x81, 4}); }, kFlagForeign,
-                    "joint 4 (node 4): NMT reset node from another master");
-  expect_fault_stop([](Rig& r) { r.forge(0x000, {0x82, 0}); }, kFlagForeign,
-                    "NMT reset communication from another master for all nodes");
+  expect_fault_stop(
+      [](Rig& r) {
+        r.forge(0x000, {0x02, 4});
+      },
+      kFlagForeign, "joint 4 (node 4): NMT stop from another master");
+  expect_fault_stop(
+      [](Rig& r) {
+        r.forge(0x000, {0x81, 4});
+      },
+      kFlagForeign, "joint 4 (node 4): NMT reset node from another master");
+  expect_fault_stop(
+      [](Rig& r) {
+        r.forge(0x000, {0x82, 0});
+      },
+      kFlagForeign, "NMT reset communication from another master for all nodes");
 }
 
 TEST(RobotLinkNode, HeartbeatSayingADriveLeftOperationalOrRebootedStopsTheArm) {
@@ -584,8 +621,11 @@ TEST(RobotLinkNode, DriveStateChangeWithoutACommandStopsTheArm) {
 }
 
 TEST(RobotLinkNode, OneForgedEmcyStillFaultsTheArm) {
-  expect_fault_stop([](Rig& r) { r.forge(0x082, {0x10, 0x23, 0x01, 0, 0, 0, 0, 0}); }, kFlagEmcy,
-                    "joint 2 (node 2): EMCY 0x2310 current");
+  expect_fault_stop(
+      [](Rig& r) {
+        r.forge(0x082, {0x10, 0x23, 0x01, 0, 0, 0, 0, 0});
+      },
+      kFlagEmcy, "joint 2 (node 2): EMCY 0x2310 current");
 }
 
 // The manual-clock twin of tests/integration/arm/robot_link_kill_test: the
@@ -596,8 +636,8 @@ TEST(RobotLinkNode, OneForgedEmcyStillFaultsTheArm) {
 // 20 mm of the last frame. The worst case is printed.
 TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
   double worst_ms = 0.0, worst_mm = 0.0;
-  for (const Eigen::Vector3d& dir : std::vector<Eigen::Vector3d>{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1},
-                                                               {0, 0, -1}}) {
+  for (const Eigen::Vector3d& dir :
+       std::vector<Eigen::Vector3d>{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}) {
     for (const double moving : {0.4, 0.5}) {
       Rig rig(default_config());
       rig.start();
@@ -607,8 +647,8 @@ TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
       const std::size_t n = rig.states().size();
       rig.run_until([&] { return rig.states().size() > n; }, 0.02, cmd);  // a SYNC just went out
       const auto& s = rig.last();
-      ASSERT_NEAR(Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm(),
-                  0.381, 0.01)
+      ASSERT_NEAR(Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm(), 0.381,
+                  0.01)
           << dir.transpose() << " after " << moving << " s";
       const auto tool = [&] {
         Eigen::VectorXd q(7);
@@ -635,8 +675,9 @@ TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
         EXPECT_EQ(rig.drives().drive(i).state(), canopen::Cia402State::kQuickStopActive) << "joint " << i + 1;
     }
   }
-  std::printf("link silent at 0.381 m/s (12 motions): every joint at rest within %.0f ms, tool travel at most %.1f mm\n",
-              worst_ms, worst_mm);
+  std::printf(
+      "link silent at 0.381 m/s (12 motions): every joint at rest within %.0f ms, tool travel at most %.1f mm\n",
+      worst_ms, worst_mm);
 }
 
 TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {
@@ -667,6 +708,78 @@ TEST(RobotLinkNode, EmergencyStopIsImmediateAndLatchesUntilCleared) {
   ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_MOVING; }, 2.0, cmd))
       << rig.describe_last();
   EXPECT_EQ(rig.last().fault_flags & kFlagEstop, 0);
+}
+
+// Command authority (docs/security.md, issue 16 item 4): motion only from the
+// bound controller, signed with the robot's key, fresh and never twice;
+// RESET_FAULT and an e-stop clear only from an operator; an e-stop engage
+// from anyone. Every refusal is counted by reason and moves nothing.
+TEST(RobotLinkNode, ObeysOnlySignedFreshCommandsFromWhomItIsBoundTo) {
+  Rig rig(default_config());
+  rig.start();
+  const auto twist = twist_command(0.0, 0.0, 0.1);
+  harvest::testing::CommandSigner impostor("someone-else", &rig.clock());
+  harvest::testing::CommandSigner wrong_key(harvest::testing::kController, &rig.clock(),
+                                            security::generate_key(security::KeyKind::sim));
+  harvest::testing::CommandSigner controller(harvest::testing::kController, &rig.clock());
+  const auto stale = [&] {
+    rt::ManualClock past(rig.now() - 2 * rt::kSecond);  // signed 2 s ago (window 1 s)
+    return harvest::testing::CommandSigner(harvest::testing::kController, &past)(twist);
+  }();
+  const auto captured = controller(twist);
+  rig.inject_as_is(ch::kRobotCommand, captured);  // obeyed once ...
+  rig.run(0.02);
+  rig.inject(ch::kRobotCommand, twist_command(0, 0, 0));  // ... and stopped again by the controller
+  rig.run(0.5);
+  ASSERT_LT(rig.max_true_speed(), 1e-9);
+  const auto before = rig.node().stats().counters;
+  const auto rose = [&](const std::string& c) {
+    const auto& after = rig.node().stats().counters;
+    return (after.count(c) ? after.at(c) : 0) - (before.count(c) ? before.at(c) : 0);
+  };
+  const Eigen::Vector3d at_rest = position(rig.last().tool_pose);
+  // The captured command again, within its validity window: a replay.
+  rig.run(0.5, [&, n = 0]() mutable {
+    if (n++ % 100 == 0) rig.inject_as_is(ch::kRobotCommand, captured);
+  });
+  EXPECT_EQ(rose("robot_command_replayed"), 5);
+  // What an attacker without the key can make, 10 of each.
+  rig.run(1.0, [&, n = 0]() mutable {
+    switch (n++ % 100) {
+      case 0:
+        rig.inject_as_is(ch::kRobotCommand, twist);
+        break;  // unsigned
+      case 25:
+        rig.inject_as_is(ch::kRobotCommand, impostor(twist));
+        break;  // not the bound controller
+      case 50:
+        rig.inject_as_is(ch::kRobotCommand, wrong_key(twist));
+        break;  // another key
+      case 75:
+        rig.inject_as_is(ch::kRobotCommand, stale);
+        break;  // signed 2 s ago
+    }
+  });
+  EXPECT_LT(rig.max_true_speed(), 1e-9) << "a refused command moved the arm";
+  EXPECT_LT((position(rig.last().tool_pose) - at_rest).norm(), 1e-9) << "a refused command moved the arm";
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_IDLE) << rig.describe_last();
+  EXPECT_EQ(rose("robot_command_unsigned"), 10);
+  EXPECT_EQ(rose("robot_command_unknown_sender"), 10);
+  EXPECT_EQ(rose("robot_command_bad_mac"), 10);
+  EXPECT_EQ(rose("robot_command_stale"), 10);
+  EXPECT_EQ(rose("robot_command_refused"), 45);
+
+  // E-stop: engaged by anyone, unsigned; cleared only by an operator's signature.
+  rig.inject_as_is(ch::kEmergencyStop, estop(true, false));
+  rig.run(0.05);
+  ASSERT_EQ(rig.last().mode, +robot_state_t::MODE_ESTOP);
+  rig.inject_as_is(ch::kEmergencyStop, estop(false, true));              // unsigned clear
+  rig.inject_as_is(ch::kEmergencyStop, controller(estop(false, true)));  // the controller may not clear it
+  rig.run(0.3);
+  EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_ESTOP);
+  EXPECT_EQ(rose("emergency_stop_clear_refused"), 2);
+  rig.inject(ch::kEmergencyStop, estop(false, true));  // an operator's
+  ASSERT_TRUE(rig.run_until([&] { return rig.last().mode == +robot_state_t::MODE_IDLE; }, 2.0)) << rig.describe_last();
 }
 
 TEST(RobotLinkNode, LinearSpeedIsLimitedAndReported) {
@@ -701,7 +814,7 @@ TEST(RobotLinkNode, LimitsThatComeAndGoAreLoggedAtMostOnceASecond) {
   c.limits.angular_speed = 0.3;
   Rig rig(std::move(c));
   rig.start();
-  const auto linear = twist_command(0.0, 0.0, 0.5);                 // 2.5x the limit: clipped
+  const auto linear = twist_command(0.0, 0.0, 0.5);                  // 2.5x the limit: clipped
   const auto angular = twist_command(0.0, 0.0, 0.0, 0.0, 0.0, 0.8);  // 2.7x
   const int32_t before = rig.last().num_limit_events;
   rig.run(3.0, [&rig, &linear, &angular, n = 0]() mutable {
@@ -876,8 +989,8 @@ TEST(RobotLinkNode, NonPhysicalTwistIsRefusedNotClippedAndObeyed) {
   Rig rig(default_config());
   rig.start();
   const Eigen::Vector3d start = position(rig.last().tool_pose);
-  for (const auto& garbage : {twist_command(1e9, 0.0, 0.0), twist_command(0.0, 0.0, 1.2),
-                              twist_command(0.0, 0.0, 0.0, 0.0, 5.0, 0.0)}) {
+  for (const auto& garbage :
+       {twist_command(1e9, 0.0, 0.0), twist_command(0.0, 0.0, 1.2), twist_command(0.0, 0.0, 0.0, 0.0, 5.0, 0.0)}) {
     const int64_t refused = counter(rig.node(), "commands_refused");
     rig.run(0.3, every_20ms(rig, garbage));
     EXPECT_GE(counter(rig.node(), "commands_refused"), refused + 10);
@@ -944,8 +1057,8 @@ TEST(RobotLinkNode, LongPoseGoalIsDryRunInSlicesThenRuns) {
   rig.inject(ch::kRobotCommand, cmd);
   EXPECT_EQ(counter(rig.node(), "pose_goals_cartesian"), 0) << "decided within the handler";
   const std::size_t at_goal = rig.states().size();
-  ASSERT_TRUE(rig.run_until([&] { return counter(rig.node(), "pose_goals_cartesian") == 1; }, 2.0,
-                            every_20ms(rig, cmd)));
+  ASSERT_TRUE(
+      rig.run_until([&] { return counter(rig.node(), "pose_goals_cartesian") == 1; }, 2.0, every_20ms(rig, cmd)));
   EXPECT_GE(rig.states().size() - at_goal, static_cast<std::size_t>(560 / per_period))
       << "periods between the goal and its decision";
   EXPECT_LT((position(rig.last().tool_pose) - position(s0.tool_pose)).norm(), 1e-3) << "held while planning";

@@ -10,6 +10,7 @@
 #include "endeffector/bridge_node.hpp"
 #include "endeffector/parser.hpp"
 #include "runtime/dispatcher.hpp"
+#include "signing.hpp"
 
 namespace ee = harvest::endeffector;
 namespace rt = harvest::rt;
@@ -150,8 +151,20 @@ class TestRunner final : public rt::Dispatcher {
         if (watched_.count(fd)) cb();
     }
   }
+  // Gripper commands go in signed by the controller, e-stops by an operator
+  // (docs/security.md); inject_as_is sends them as they are.
   template <class Msg>
   void inject(const std::string& channel, Msg msg) {
+    if constexpr (std::is_same_v<Msg, harvest::gripper_command_t>)
+      msg = controller(msg);
+    else if constexpr (std::is_same_v<Msg, harvest::emergency_stop_t>)
+      msg = operator_signer(msg);
+    inject_as_is(channel, msg);
+  }
+  harvest::testing::CommandSigner controller{harvest::testing::kController, &clock};
+  harvest::testing::CommandSigner operator_signer{harvest::testing::kOperator, &clock};
+  template <class Msg>
+  void inject_as_is(const std::string& channel, Msg msg) {
     std::vector<uint8_t> b(static_cast<std::size_t>(msg.getEncodedSize()));
     msg.encode(b.data(), 0, static_cast<int>(b.size()));
     deliver(channel, b.data(), b.size(), clock.now());
@@ -194,6 +207,7 @@ ee::BridgeConfig test_config(FakeDevice& dev) {
   c.state_channel = "GRIPPER_STATE";
   c.command_channel = "GRIPPER_COMMAND";
   c.estop_channel = "EMERGENCY_STOP";
+  c.authority = harvest::testing::sim_authority("");
   return c;  // timing defaults: silence 200 ms, reconnect after 1 s, back-off 100 ms .. 2 s
 }
 
@@ -435,6 +449,44 @@ TEST(EeBridgeNode, EmergencyStopSendsStopAndBlocksCommands) {
   EXPECT_EQ(counter(*f.node, "commands_rejected"), 1);
 }
 
+// Command authority (docs/security.md): only the bound controller's signed,
+// fresh, not-yet-seen gripper commands reach the board; an e-stop clear only
+// from an operator. Refusals are counted by reason and send nothing.
+TEST(EeBridgeNode, ForwardsOnlyTheControllersSignedCommands) {
+  Fixture f;
+  f.start();
+  f.run.run_for(50 * kMilli);
+  harvest::testing::CommandSigner impostor("someone-else", &f.run.clock);
+  const auto captured = f.run.controller(command(kCmdClose, 5.0f));
+  f.run.inject_as_is("GRIPPER_COMMAND", captured);                        // obeyed
+  f.run.inject_as_is("GRIPPER_COMMAND", captured);                        // replayed
+  f.run.inject_as_is("GRIPPER_COMMAND", command(kCmdOpen, 0));            // unsigned
+  f.run.inject_as_is("GRIPPER_COMMAND", impostor(command(kCmdOpen, 0)));  // not the controller
+  f.run.run_for(10 * kMilli);
+  EXPECT_EQ(only<ee::Close>(f.dev.host_frames()).size(), 1u);
+  EXPECT_TRUE(only<ee::Open>(f.dev.host_frames()).empty());
+  EXPECT_EQ(counter(*f.node, "commands_sent"), 1);
+  EXPECT_EQ(counter(*f.node, "gripper_command_refused"), 3);
+  EXPECT_EQ(counter(*f.node, "gripper_command_replayed"), 1);
+  EXPECT_EQ(counter(*f.node, "gripper_command_unsigned"), 1);
+  EXPECT_EQ(counter(*f.node, "gripper_command_unknown_sender"), 1);
+  // E-stop: engaged unsigned; an unsigned clear leaves it engaged.
+  harvest::emergency_stop_t stop{};
+  stop.engaged = true;
+  f.run.inject_as_is("EMERGENCY_STOP", stop);
+  harvest::emergency_stop_t clear{};
+  clear.clear = true;
+  f.run.inject_as_is("EMERGENCY_STOP", clear);
+  f.run.inject("GRIPPER_COMMAND", command(kCmdOpen, 0));
+  f.run.run_for(10 * kMilli);
+  EXPECT_TRUE(only<ee::Open>(f.dev.host_frames()).empty()) << "an unsigned clear released the e-stop";
+  EXPECT_EQ(counter(*f.node, "emergency_stop_clear_unsigned"), 1);
+  f.run.inject("EMERGENCY_STOP", clear);
+  f.run.inject("GRIPPER_COMMAND", command(kCmdOpen, 0));
+  f.run.run_for(10 * kMilli);
+  EXPECT_EQ(only<ee::Open>(f.dev.host_frames()).size(), 1u);
+}
+
 TEST(EeBridgeNode, BoardFaultReachesGripperState) {
   Fixture f;
   f.start();
@@ -612,7 +664,8 @@ TEST(EeBridgeConfig, ReadsTimingCurveAndChannelsAndRejectsInconsistentTimeouts) 
   auto doc = harvest::config::Document::load_string(
       "link: {transport: tcp, tcp: {host: 127.0.0.1, port: 4555}}\n"
       "silence_timeout_s: 0.3\nreconnect_after_silence_s: 2\nbackoff_initial_s: 0.05\n"
-      "channels: {ir_range: IR_LEFT}\n");
+      "channels: {ir_range: IR_LEFT}\n"
+      "authority: {key: sim, controller: servo-controller}\n");
   const auto c = ee::BridgeConfig::from_config(doc.root());
   EXPECT_EQ(c.silence_timeout, 300 * kMilli);
   EXPECT_EQ(c.reconnect_after_silence, 2 * kSecond);
@@ -622,7 +675,8 @@ TEST(EeBridgeConfig, ReadsTimingCurveAndChannelsAndRejectsInconsistentTimeouts) 
   EXPECT_EQ(c.make_link()->describe(), "tcp:127.0.0.1:4555");
 
   auto bad = harvest::config::Document::load_string(
-      "link: {transport: tcp}\nsilence_timeout_s: 0.5\nreconnect_after_silence_s: 0.2\n");
+      "link: {transport: tcp}\nsilence_timeout_s: 0.5\nreconnect_after_silence_s: 0.2\n"
+      "authority: {key: sim, controller: servo-controller}\n");
   try {
     ee::BridgeConfig::from_config(bad.root());
     FAIL() << "accepted reconnect_after_silence_s < silence_timeout_s";

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "signing.hpp"
+
 namespace harvest::servo {
 namespace {
 
@@ -22,6 +24,29 @@ TEST(OperatorCommand, MakesTheMessageOfEachVerb) {
   EXPECT_TRUE(e.engaged);
   EXPECT_EQ(e.reason, "why");
   EXPECT_THROW(make_operator_message("go", "me", "", 5), std::invalid_argument);
+}
+
+// Every operator message is signed, each copy of a repeated one afresh (a
+// receiver refuses a repeated seq as a replay).
+TEST(OperatorCommand, SignsEachMessageAfresh) {
+  rt::ManualClock clock(1'000'000);
+  security::Signer signer(security::sim_key(), "operator", clock);
+  security::Authority receiver(harvest::testing::sim_authority(""), security::sim_key(), clock,
+                               [](const std::string&, int64_t) {});
+  OperatorMessage a = make_operator_message("estop-clear", "me", "", clock.now());
+  OperatorMessage b = a;
+  sign_operator_message(a, signer);
+  sign_operator_message(b, signer);
+  const auto& ea = std::get<emergency_stop_t>(a);
+  const auto& eb = std::get<emergency_stop_t>(b);
+  EXPECT_EQ(ea.auth.sender, "operator");
+  EXPECT_GT(eb.auth.seq, ea.auth.seq);
+  EXPECT_TRUE(receiver.admit_estop(ea));
+  EXPECT_TRUE(receiver.admit_estop(eb));
+  EXPECT_FALSE(receiver.admit_estop(eb));
+  OperatorMessage reset = make_operator_message("reset-fault", "me", "", clock.now());
+  sign_operator_message(reset, signer);
+  EXPECT_TRUE(receiver.admit_from_operator("RESET_FAULT", std::get<operator_command_t>(reset)));
 }
 
 TEST(OperatorCommand, AcknowledgementNamesThisSenderOnly) {

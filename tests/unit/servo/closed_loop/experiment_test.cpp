@@ -120,7 +120,7 @@ TEST(ServoConfig, ApproachModeSelectsTheStrategyAndItsInputs) {
     const auto doc = config::Document::load_string("approach_mode: " + mode);
     const ServoConfig cfg = ServoConfig::from_yaml(doc.root());
     rt::SimRunner bus(kT0);
-    ServoControllerNode ctrl(cfg);
+    ServoControllerNode ctrl(cfg, harvest::testing::sim_authority(harvest::testing::kController, ""));
     bus.add(ctrl);
     bus.start();
     EXPECT_EQ(ctrl.machine().approach_name(), mode);
@@ -153,7 +153,7 @@ TEST(ClosedLoop, ReplayOfARecordedLogGivesIdenticalCommands) {
     options.input_log = (dir / "in.lcmlog").string();
     options.output_log = (dir / out).string();
     rt::ReplayRunner runner(options);
-    ServoControllerNode ctrl(cfg);
+    ServoControllerNode ctrl(cfg, harvest::testing::sim_authority(harvest::testing::kController, ""));
     runner.add(ctrl);
     runner.run();
     return rt::read_log((dir / out).string());

@@ -7,7 +7,12 @@
 
 namespace harvest::servo::testing {
 
-Loop::Loop(WorldSpec s, ServoConfig c) : spec(std::move(s)), cfg(std::move(c)), ctrl(cfg), arm(spec), world(spec, arm) {
+Loop::Loop(WorldSpec s, ServoConfig c)
+    : spec(std::move(s)),
+      cfg(std::move(c)),
+      ctrl(cfg, harvest::testing::sim_authority(harvest::testing::kController, "")),
+      arm(spec),
+      world(spec, arm) {
   bus.add(ctrl);
   bus.add(arm);
   bus.add(world);

@@ -14,6 +14,7 @@
 #include "harvest/operator_command_t.hpp"
 #include "runtime/channels.hpp"
 #include "servo/controller_node.hpp"
+#include "signing.hpp"
 #include "sim_harness.hpp"
 
 namespace harvest::servo::testing {
@@ -29,6 +30,8 @@ struct Loop {
   WorldSpec spec;
   ServoConfig cfg;
   rt::SimRunner bus{kT0};
+  harvest::testing::RunnerClock clock{bus};
+  harvest::testing::CommandSigner operator_signer{harvest::testing::kOperator, &clock};
   ServoControllerNode ctrl;
   ArmDouble arm;
   WorldDouble world;
@@ -36,10 +39,13 @@ struct Loop {
   explicit Loop(WorldSpec s, ServoConfig c = test_config());
   double t() const { return rt::to_seconds(bus.now() - kT0); }
   void at(double s) { bus.run_until(kT0 + rt::from_seconds(s)); }
+  // Operator commands and e-stops go in signed by an operator (docs/security.md).
   template <class Msg>
   void send(double s, const std::string& channel, Msg m) {
     at(s);
     m.header.utime = bus.now();
+    if constexpr (std::is_same_v<Msg, operator_command_t> || std::is_same_v<Msg, emergency_stop_t>)
+      m = operator_signer(m);
     bus.inject(channel, m);
   }
   void start(double s = 0.051) { send(s, ch::kOperatorCommand, op(operator_command_t::START)); }

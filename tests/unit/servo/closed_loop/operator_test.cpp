@@ -44,6 +44,50 @@ TEST(ClosedLoop, EmergencyStopHaltsAtOnceAndLatchesUntilCleared) {
   expect_within_limits(loop);
 }
 
+// Command authority (docs/security.md): the controller obeys operator
+// commands and an e-stop clear only when an operator signed them; an e-stop
+// engage from anyone. What it sends goes out signed as itself.
+TEST(ClosedLoop, ObeysOnlyOperatorSignedCommandsAndSignsItsOwn) {
+  Loop loop(experiment_one());
+  harvest::testing::CommandSigner impostor("attacker", &loop.clock);
+  harvest::testing::CommandSigner controller(harvest::testing::kController, &loop.clock);
+  loop.at(0.05);
+  loop.bus.inject(ch::kOperatorCommand, op(operator_command_t::START));              // unsigned
+  loop.bus.inject(ch::kOperatorCommand, impostor(op(operator_command_t::START)));    // unknown sender
+  loop.bus.inject(ch::kOperatorCommand, controller(op(operator_command_t::START)));  // not an operator
+  loop.at(1.0);
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kIdle);
+  const auto& counters = loop.ctrl.stats().counters;
+  EXPECT_EQ(counters.at("operator_command_refused"), 3);
+  EXPECT_EQ(counters.at("operator_command_unsigned"), 1);
+  EXPECT_EQ(counters.at("operator_command_unknown_sender"), 2);
+  loop.bus.inject(ch::kEmergencyStop, estop(true, false));  // unsigned engage: obeyed
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kEstop);
+  loop.bus.inject(ch::kEmergencyStop, estop(false, true));  // unsigned clear: refused
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kEstop);
+  EXPECT_EQ(counters.at("emergency_stop_clear_unsigned"), 1);
+  loop.send(1.1, ch::kEmergencyStop, estop(false, true));  // an operator's
+  EXPECT_EQ(loop.ctrl.machine().state(), State::kIdle);
+  loop.start(1.2);
+  loop.at(2.0);
+  EXPECT_NE(loop.ctrl.machine().state(), State::kIdle);
+  // Its commands carry its signature, each a new seq: the robot link's gate admits them.
+  security::Authority link(harvest::testing::sim_authority("", harvest::testing::kController), security::sim_key(),
+                           loop.clock, [](const std::string&, int64_t) {});
+  const auto cmds = loop.commands();
+  ASSERT_GT(cmds.size(), 10u);
+  int64_t last = 0;
+  for (const auto& [t, c] : cmds) {
+    EXPECT_EQ(c.auth.sender, "servo-controller");
+    EXPECT_GT(c.auth.seq, last);
+    last = c.auth.seq;
+  }
+  security::Verifier verifier(security::sim_key(), {{"servo-controller"}}, loop.clock);
+  EXPECT_EQ(verifier.check(cmds.back().second), security::Verdict::ok)
+      << security::to_string(verifier.check(cmds.back().second)) << " signed at " << cmds.back().second.auth.utime
+      << " now " << loop.bus.now() << " published at " << cmds.back().first;
+}
+
 TEST(ClosedLoop, EmergencyStopWhileIdleLatchesToo) {
   Loop loop(experiment_one());
   loop.at(0.5);
