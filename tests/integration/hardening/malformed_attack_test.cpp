@@ -139,8 +139,8 @@ std::vector<uint8_t> command_with_joint_count(int32_t n) {
   c.twist.linear[2] = 0.1;
   c.num_joints = 0;
   auto b = rt::encode(c);
-  // num_joints sits before the three trailing 8-byte fields.
-  const std::size_t at = b.size() - 24 - 4;
+  // num_joints sits before the three trailing 8-byte fields and the auth block.
+  const std::size_t at = b.size() - static_cast<std::size_t>(c.auth._getEncodedSizeNoHash()) - 24 - 4;
   for (int i = 0; i < 4; ++i)
     b[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(static_cast<uint32_t>(n) >> (24 - 8 * i));
   return b;
@@ -231,7 +231,8 @@ TEST(MalformedAttack, EveryProcessOfTheFieldSetSurvivesCountsAndTheArmStaysStill
       {"TARGETS", zero_frame_id(targets_t{})},
       {"HARVEST_STATUS", zero_frame_id(harvest_status_t{})},
   };
-  ASSERT_EQ(attacks[0].second.size(), 58u);
+  // The 58-byte packet, 53 bytes longer with the (empty) auth block.
+  ASSERT_EQ(attacks[0].second.size(), 58u + 53u);
   for (int round = 0; round < 3; ++round)
     for (const auto& [channel, bytes] : attacks) {
       watch.publish(channel, bytes);

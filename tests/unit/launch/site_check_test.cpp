@@ -157,8 +157,10 @@ TEST(SiteCheck, ShippedFieldSetsUseTheSiteFile) {
   const SetSpec robot = load_set(testing::source_path("config/sets/field-robot.yaml"));
   EXPECT_EQ(robot.site.values.at("can_bus"), "socketcan:can0");
   EXPECT_EQ(robot.processes[0].args,
-            (std::vector<std::string>{"--config", "config/arm/robot_link.yaml", "--set", "bus=socketcan:can0"}));
-  EXPECT_EQ(robot.site.used_by.at("ee-bridge"), std::vector<std::string>{"ee_serial"});
+            (std::vector<std::string>{"--config", "config/arm/robot_link.yaml", "--set", "bus=socketcan:can0", "--set",
+                                      "authority.key=/etc/harvest/robot.key"}));
+  EXPECT_EQ(robot.site.used_by.at("ee-bridge"), (std::vector<std::string>{"ee_serial", "command_key"}));
+  EXPECT_EQ(robot.site.used_by.at("servo-controller"), std::vector<std::string>{"command_key"});
   const SetSpec vision = load_set(testing::source_path("config/sets/field-vision.yaml"));
   EXPECT_EQ(vision.site.used_by.at("camera-fixed"), std::vector<std::string>{"camera_fixed"});
   EXPECT_EQ(vision.site.used_by.at("camera-hand"), std::vector<std::string>{"camera_hand"});

@@ -42,6 +42,8 @@ struct Bytes {
     b.push_back(0);
     return *this;
   }
+  // auth_t of an unsigned command: empty sender, seq, utime, 32 MAC bytes.
+  Bytes& auth() { return str("").i64(0).i64(0).raw(32); }
   Bytes& raw(std::size_t n, uint8_t v = 0) {
     b.insert(b.end(), n, v);
     return *this;
@@ -83,7 +85,7 @@ Bytes robot_command_with_count(int64_t num_joints, int data_doubles) {
   x.raw(6 * 8).raw(7 * 8);  // twist, pose_goal
   x.i32(num_joints);
   for (int i = 0; i < data_doubles; ++i) x.f64(0.1);
-  x.f64(0).f64(0).i64(1);
+  x.f64(0).f64(0).i64(1).auth();
   return x;
 }
 
@@ -117,7 +119,7 @@ TEST(WireCheck, StringsMustBeTextWithOneFinalNul) {
     x.i64(emergency_stop_t::getHash()).header().i8(1).i8(0);
     x.i32(static_cast<int64_t>(bytes.size()));
     x.b.insert(x.b.end(), bytes.begin(), bytes.end());
-    x.str("r");
+    x.str("r").auth();
     return check<emergency_stop_t>(x);
   };
   EXPECT_EQ(with_source({'o', 'p', 0}), "");
