@@ -15,10 +15,14 @@ namespace harvest::servo {
 
 namespace {
 const std::map<std::string, int8_t>& commands() {
+  // int8_t{...} reads the constants' values: lcm-gen declares them `static const`
+  // without a definition, so binding them to a reference (pair's constructor)
+  // does not link in an unoptimised (sanitizer) build.
+  using C = operator_command_t;
   static const std::map<std::string, int8_t> m{
-      {"start", operator_command_t::START},   {"pause", operator_command_t::PAUSE},
-      {"resume", operator_command_t::RESUME}, {"abort", operator_command_t::ABORT},
-      {"home", operator_command_t::HOME},     {"reset-fault", operator_command_t::RESET_FAULT}};
+      {"start", int8_t{C::START}},   {"pause", int8_t{C::PAUSE}},
+      {"resume", int8_t{C::RESUME}}, {"abort", int8_t{C::ABORT}},
+      {"home", int8_t{C::HOME}},     {"reset-fault", int8_t{C::RESET_FAULT}}};
   return m;
 }
 }  // namespace

@@ -40,6 +40,7 @@
 #include <random>
 #include <thread>
 
+#include "arm_watch.hpp"
 #include "can/can_bus.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/clock.hpp"
@@ -124,70 +125,6 @@ void print(const char* what, const Period& p) {
       "time in gaps over 2 periods\n",
       what, p.frames, p.expected, p.median_ms, p.p99_ms, p.max_ms, 100.0 * p.stalled);
 }
-
-// A counter by name (a process of several nodes prefixes each node's name).
-int64_t counter(const process_status_t& s, const std::string& name) {
-  int64_t n = 0;
-  for (std::size_t i = 0; i < s.counter_names.size(); ++i) {
-    const std::string& c = s.counter_names[i];
-    if (c.size() >= name.size() && c.compare(c.size() - name.size(), name.size(), name) == 0) n += s.counter_values[i];
-  }
-  return n;
-}
-
-class Watch {
- public:
-  explicit Watch(const std::string& url) : lcm_(url) {
-    lcm_.subscribeFunction(ch::kRobotState, &Watch::on_state, this);
-    lcm_.subscribeFunction("PROCESS_STATUS", &Watch::on_status, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(20);
-    });
-  }
-  ~Watch() {
-    stop_ = true;
-    thread_.join();
-  }
-  bool good() { return lcm_.good(); }
-  std::optional<robot_state_t> state() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return state_;
-  }
-  std::vector<robot_state_t> states_since(int64_t utime) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    std::vector<robot_state_t> out;
-    for (const auto& s : history_)
-      if (s.header.utime >= utime) out.push_back(s);
-    return out;
-  }
-  std::optional<process_status_t> link_status() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return link_;
-  }
-
- private:
-  static void on_state(const lcm::ReceiveBuffer* rb, const std::string&, Watch* self) {
-    robot_state_t s;
-    if (!rt::decode_checked(rb->data, rb->data_size, s).empty()) return;
-    std::lock_guard<std::mutex> lock(self->mutex_);
-    self->state_ = s;
-    self->history_.push_back(s);
-  }
-  static void on_status(const lcm::ReceiveBuffer* rb, const std::string&, Watch* self) {
-    process_status_t s;
-    if (!rt::decode_checked(rb->data, rb->data_size, s).empty()) return;
-    if (s.instance != "robot-link") return;
-    std::lock_guard<std::mutex> lock(self->mutex_);
-    self->link_ = s;
-  }
-  lcm::LCM lcm_;
-  std::mutex mutex_;
-  std::optional<robot_state_t> state_;
-  std::vector<robot_state_t> history_;
-  std::optional<process_status_t> link_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 // The flood's messages, already encoded where they need no fresh signature.
 class Flood {
@@ -287,7 +224,7 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
                           std::to_string(57000 + (pid * 13) % 4000) + "?ttl=0";
   const std::string url = ht::unique_lcm_url();
   SyncClock sync(bus);
-  Watch watch(url);
+  ht::ArmWatch watch(url);
   ASSERT_TRUE(watch.good());
   ht::ChildProcess drives({ht::bin("harvest-sim-drives"), "--config", ht::source_path("config/arm/sim_drives.yaml"),
                            "--set", "bus=" + bus, "--lcm-url", url, "--no-netcheck"},
@@ -303,14 +240,14 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
   ASSERT_TRUE(ht::eventually(
       [&] {
         const auto s = watch.state();
-        return s && s->mode == +robot_state_t::MODE_IDLE && watch.link_status();
+        return s && s->mode == +robot_state_t::MODE_IDLE && watch.status("robot-link");
       },
       20s))
       << outputs();
   std::this_thread::sleep_for(500ms);
 
   const robot_state_t before = *watch.state();
-  const process_status_t status_before = *watch.link_status();
+  const process_status_t status_before = *watch.status("robot-link");
   const int64_t rest_from = rt::wall_time_now();
   std::this_thread::sleep_for(1s);
   const int64_t flood_from = rt::wall_time_now();
@@ -353,20 +290,20 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
 
   ASSERT_TRUE(ht::eventually(
       [&] {
-        const auto s = watch.link_status();
+        const auto s = watch.status("robot-link");
         return s && s->header.utime > status_before.header.utime + 1'000'000;
       },
       5s));
-  const process_status_t status_after = *watch.link_status();
+  const process_status_t status_after = *watch.status("robot-link");
   EXPECT_EQ(status_after.pid, status_before.pid);
   EXPECT_GT(status_after.decode_errors, status_before.decode_errors) << "malformed commands counted";
-  EXPECT_GT(counter(status_after, "robot_command_refused"), counter(status_before, "robot_command_refused"))
+  EXPECT_GT(ht::counter_sum(status_after, "robot_command_refused"), ht::counter_sum(status_before, "robot_command_refused"))
       << "unsigned twists counted";
   EXPECT_GT(after.num_limit_events, before.num_limit_events) << "signed goals refused and counted";
   std::printf("robot link: %lld malformed dropped, %lld unsigned commands refused, %d limit events\n",
               static_cast<long long>(status_after.decode_errors - status_before.decode_errors),
-              static_cast<long long>(counter(status_after, "robot_command_refused") -
-                                     counter(status_before, "robot_command_refused")),
+              static_cast<long long>(ht::counter_sum(status_after, "robot_command_refused") -
+                                     ht::counter_sum(status_before, "robot_command_refused")),
               after.num_limit_events - before.num_limit_events);
 
   EXPECT_EQ(link.stop(10s), 0) << outputs();

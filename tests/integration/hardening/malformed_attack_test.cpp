@@ -39,6 +39,7 @@
 #include <sstream>
 #include <thread>
 
+#include "arm_watch.hpp"
 #include "demo/set_rewrite.hpp"
 #include "runtime/log_io.hpp"
 #include "test_support.hpp"
@@ -49,66 +50,6 @@ using namespace harvest;
 using namespace std::chrono_literals;
 
 namespace {
-
-// Only what the test reads: heartbeats and robot states (the cameras' images
-// are not kept).
-class Watch {
- public:
-  explicit Watch(const std::string& url) : lcm_(url) {
-    lcm_.subscribeFunction("PROCESS_STATUS", &Watch::on_status, this);
-    lcm_.subscribeFunction("ROBOT_STATE", &Watch::on_state, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(20);
-    });
-  }
-  ~Watch() {
-    stop_ = true;
-    thread_.join();
-  }
-  bool good() { return lcm_.good(); }
-  void publish(const std::string& channel, const std::vector<uint8_t>& bytes) {
-    std::lock_guard<std::mutex> lock(publish_mutex_);
-    lcm_.publish(channel, bytes.data(), static_cast<unsigned>(bytes.size()));
-  }
-  std::map<std::string, process_status_t> statuses() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return status_;
-  }
-  std::optional<robot_state_t> state() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return state_;
-  }
-
- private:
-  static void on_status(const lcm::ReceiveBuffer* rb, const std::string&, Watch* self) {
-    process_status_t s;
-    if (!rt::decode_checked(rb->data, rb->data_size, s).empty()) return;  // ours: the attack
-    std::lock_guard<std::mutex> lock(self->mutex_);
-    self->status_[s.instance] = s;
-  }
-  static void on_state(const lcm::ReceiveBuffer* rb, const std::string&, Watch* self) {
-    robot_state_t s;
-    if (!rt::decode_checked(rb->data, rb->data_size, s).empty()) return;
-    std::lock_guard<std::mutex> lock(self->mutex_);
-    self->state_ = s;
-  }
-  lcm::LCM lcm_;
-  std::mutex mutex_, publish_mutex_;
-  std::map<std::string, process_status_t> status_;
-  std::optional<robot_state_t> state_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
-
-int64_t counter(const process_status_t& s, const std::string& suffix) {
-  int64_t n = 0;  // a process of several nodes prefixes each node's name
-  for (std::size_t i = 0; i < s.counter_names.size(); ++i) {
-    const std::string& c = s.counter_names[i];
-    if (c.size() >= suffix.size() && c.compare(c.size() - suffix.size(), suffix.size(), suffix) == 0)
-      n += s.counter_values[i];
-  }
-  return n;
-}
 
 // Peak resident set of a process [kB].
 long peak_rss_kb(int pid) {
@@ -183,7 +124,7 @@ TEST(MalformedAttack, EveryProcessOfTheFieldSetSurvivesCountsAndTheArmStaysStill
   rw.extra_args["ee-bridge"] = {"--set", "link.tcp.port=" + port};
   std::ofstream(dir / "set.yaml") << demo::rewrite_set(rw);
 
-  Watch watch(url);
+  ht::ArmWatch watch(url);
   ASSERT_TRUE(watch.good());
   ht::ChildProcess launch(
       {ht::bin("harvest-launch"), (dir / "set.yaml").string(), "--lcm-url", url, "--no-table", "--instance", "launch"},
@@ -254,21 +195,21 @@ TEST(MalformedAttack, EveryProcessOfTheFieldSetSurvivesCountsAndTheArmStaysStill
     const auto s = watch.statuses();
     for (const auto& [instance, channels] : expected)
       for (const auto& c : channels)
-        if (counter(s.at(instance), "malformed." + c) < 1) return false;
+        if (ht::counter_sum(s.at(instance), "malformed." + c) < 1) return false;
     return true;
   };
   const bool counted = ht::eventually(all_counted, 10s);
   const auto after = watch.statuses();
   for (const auto& [instance, channels] : expected)
     for (const auto& c : channels)
-      EXPECT_GE(counter(after.at(instance), "malformed." + c), 1) << instance << " did not count " << c;
+      EXPECT_GE(ht::counter_sum(after.at(instance), "malformed." + c), 1) << instance << " did not count " << c;
   ASSERT_TRUE(counted) << launch.output();
 
   for (const auto& i : instances) {
     EXPECT_EQ(after.at(i).pid, before.at(i).pid) << i << " was restarted";
     EXPECT_EQ(::kill(after.at(i).pid, 0), 0) << i << " is gone";
     EXPECT_GT(after.at(i).uptime_us, before.at(i).uptime_us) << i;
-    EXPECT_EQ(counter(after.at(i), "handler_errors."), 0) << i;
+    EXPECT_EQ(ht::counter_sum(after.at(i), "handler_errors."), 0) << i;
     // 1e8 joints would be 800 MB, a 1e8-byte image 100 MB.
     const long grew_kb = peak_rss_kb(after.at(i).pid) - rss_before[i];
     std::cout << i << ": pid " << after.at(i).pid << ", " << after.at(i).decode_errors
@@ -276,7 +217,7 @@ TEST(MalformedAttack, EveryProcessOfTheFieldSetSurvivesCountsAndTheArmStaysStill
     EXPECT_LT(grew_kb, 40'000) << i << " peak memory grew by " << grew_kb << " kB";
   }
   EXPECT_GE(after.at("robot-link").decode_errors, 3 * 3);
-  EXPECT_GE(counter(after.at("robot-link"), "malformed.ROBOT_COMMAND"), 3);
+  EXPECT_GE(ht::counter_sum(after.at("robot-link"), "malformed.ROBOT_COMMAND"), 3);
 
   // The arm did not move and nothing was accepted as a command.
   std::this_thread::sleep_for(500ms);
