@@ -1,5 +1,7 @@
 #include "config/config.hpp"
 
+#include <algorithm>
+
 #include <fstream>
 #include <sstream>
 
@@ -209,6 +211,13 @@ void Document::apply_override(const std::string& assignment) {
   std::vector<std::string> parts;
   std::stringstream ss(key);
   for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+  // Every part names a key, and no configuration nests deeper than a few
+  // levels: a path of hundreds of parts emitted a configuration yaml-cpp no
+  // longer loads (found by config_loader_fuzz).
+  if (key.back() == '.' || std::find(parts.begin(), parts.end(), "") != parts.end())
+    throw Error("override '" + assignment + "': empty key in KEY.PATH");
+  if (parts.size() > kMaxOverrideDepth)
+    throw Error("override '" + assignment + "': KEY.PATH deeper than " + std::to_string(kMaxOverrideDepth) + " levels");
   // yaml-cpp nodes are handles; walk with fresh handles so we never rebind.
   std::vector<YAML::Node> chain{tree_};
   for (std::size_t i = 0; i + 1 < parts.size(); ++i) {

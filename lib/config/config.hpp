@@ -94,8 +94,10 @@ class Document {
   static Document load_string(const std::string& text, const std::string& name = "<string>");
 
   Node root() const;
-  // Apply "a.b.c=value" overrides (value parsed as YAML). Throws on bad syntax.
+  // Apply "a.b.c=value" overrides (value parsed as YAML). Throws on bad
+  // syntax, an empty key, or a path deeper than kMaxOverrideDepth.
   void apply_override(const std::string& assignment);
+  static constexpr std::size_t kMaxOverrideDepth = 16;
   // Throws Error listing every key that was never read.
   void check_unused() const;
   // The effective configuration (after overrides and defaults) as YAML text.

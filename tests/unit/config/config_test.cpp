@@ -91,6 +91,25 @@ TEST(Config, OverridesApplyBeforeReading) {
   EXPECT_THROW(doc.apply_override("a.b.x=1"), Error);  // a.b is a scalar
 }
 
+// An override's key path names keys and stays shallow: hundreds of parts
+// once emitted a configuration that did not load again (config_loader_fuzz,
+// regression-override-path-depth in its corpus).
+TEST(Config, OverrideKeyPathsAreNonEmptyAndShallow) {
+  auto doc = Document::load_string("a: 1\n", "o.yaml");
+  EXPECT_THROW(doc.apply_override("x..y=1"), Error);
+  EXPECT_THROW(doc.apply_override(".x=1"), Error);
+  EXPECT_THROW(doc.apply_override("x.=1"), Error);
+  std::string deep = "k";
+  for (std::size_t i = 1; i < Document::kMaxOverrideDepth; ++i) deep += ".k";
+  doc.apply_override(deep + "=1");  // at the limit: fine
+  EXPECT_THROW(doc.apply_override("j." + deep + "=1"), Error);
+  std::string hundreds;
+  for (int i = 0; i < 300; ++i) hundreds += "/c.";
+  EXPECT_THROW(doc.apply_override(hundreds + "x=1"), Error);
+  // What is emitted loads again.
+  EXPECT_NO_THROW(Document::load_string(doc.emit(), "<effective>"));
+}
+
 TEST(Config, FileErrorsNameTheFile) {
   harvest::testing::TempDir dir;
   EXPECT_NE(error_of([&] { Document::load_file(dir / "nope.yaml"); }).find("nope.yaml: configuration file not found"),
