@@ -19,6 +19,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "arm_goals.hpp"
 #include "can/memory_bus.hpp"
 #include "canopen/protocol.hpp"
 #include "geometry/pose_msg.hpp"
@@ -1112,31 +1113,6 @@ TEST(RobotLinkNode, RefusalsAreLoggedAtMostOnceASecondWithACount) {
 
 // ---- Pose goals: the Cartesian dry run, the joint-space fallback, refusal.
 
-// The servo controller's ORIENT goal (servo::aim_rotation, thesis eq.
-// 6-19..6-22, restated here so the arm tests need not link the servo
-// library): the tool kept where it is, its z axis (the gripper's approach
-// axis) turned toward `target`, first about tool x, then about the new y.
-Eigen::Isometry3d aim_goal(const Eigen::Isometry3d& tool, const Eigen::Vector3d& target) {
-  const auto rx = [](double a) {
-    Eigen::Matrix3d r;
-    r << 1, 0, 0, 0, std::cos(a), std::sin(a), 0, -std::sin(a), std::cos(a);
-    return r;
-  };
-  const auto ry = [](double b) {
-    Eigen::Matrix3d r;
-    r << std::cos(b), 0, -std::sin(b), 0, 1, 0, std::sin(b), 0, std::cos(b);
-    return r;
-  };
-  const Eigen::Matrix3d rf = tool.rotation();
-  const Eigen::Vector3d m = rf.transpose() * (target - tool.translation());
-  const double alpha = std::atan2(m.y(), m.z());
-  const Eigen::Vector3d m1 = rx(alpha).transpose() * m;
-  const double beta = -std::atan2(m1.x(), m1.z());
-  Eigen::Isometry3d goal = tool;
-  goal.linear() = rf * rx(alpha) * ry(beta);
-  return goal;
-}
-
 harvest::robot_command_t pose_goal_command(const Eigen::Isometry3d& goal, int64_t goal_id) {
   harvest::robot_command_t cmd{};
   cmd.type = harvest::robot_command_t::TYPE_POSE_GOAL;
@@ -1144,10 +1120,6 @@ harvest::robot_command_t pose_goal_command(const Eigen::Isometry3d& goal, int64_
   cmd.goal_id = goal_id;
   cmd.pose_goal = geometry::to_pose(goal);
   return cmd;
-}
-
-CartesianTrajectory::Limits goal_limits(const RobotLinkConfig& c) {
-  return {c.limits.linear_speed, c.limits.angular_speed, c.limits.linear_acceleration, c.limits.angular_acceleration};
 }
 
 struct GoalRun {

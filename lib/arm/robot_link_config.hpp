@@ -1,0 +1,87 @@
+// The robot link's configuration (config/arm/robot_link.yaml): the arm model,
+// its CANopen drives, the motion envelope shared with the controller, the
+// limits on what a command may ask, the control gains, the pose-goal
+// planner's budgets and whom the link obeys. See docs/robot-link.md.
+#pragma once
+
+#include <string>
+
+#include "arm/motion_safety.hpp"
+#include "canopen/master.hpp"
+#include "config/config.hpp"
+#include "kinematics/arm_model.hpp"
+#include "security/authority.hpp"
+
+namespace harvest::arm {
+
+// When a pose goal's Cartesian dry run counts as reaching the goal
+// (dry_run_pose_goal): within these tolerances by the trajectory's end plus
+// `settle`. A path that lags behind its reference (joint speed limits near a
+// wrist singularity) but converges within the settle time is not stuck.
+struct DryRunOptions {
+  double settle = 1.0;                  // [s] after the trajectory's end
+  double position_tolerance = 0.002;    // [m]
+  double orientation_tolerance = 0.01;  // [rad]
+  // A straight path that stops this near the goal, when the joint space has
+  // no way either, runs anyway (the arm gets as close as it can; the
+  // controller decides what short means) rather than being refused.
+  double near_enough_position = 0.02;     // [m]
+  double near_enough_orientation = 0.05;  // [rad]
+  bool near_enough(double position_error, double orientation_error) const {
+    return position_error <= near_enough_position && orientation_error <= near_enough_orientation;
+  }
+  // Bounded work per control period: the link runs at most this many dry-run
+  // steps (about 10 us each) in the handler of a new goal and then after each
+  // SYNC, while the arm holds; a typical goal (under 2 s of path) is decided
+  // at once, a long slow one over a few periods.
+  int steps_per_period = 200;
+  // Pose goals whose trajectory would take longer are refused (the dry run
+  // would cover max_duration + settle of control steps).
+  double max_duration = 300.0;  // [s]
+};
+
+// Limits on what a command may ask, beyond MotionLimits: below the minimum
+// goal speeds a goal would take forever (and its dry run with it); a twist
+// beyond `non_physical_factor` times the speed limits is garbage, refused
+// rather than clipped and obeyed at full speed.
+struct CommandLimits {
+  double min_goal_linear_speed = 0.01;   // [m/s] a pose goal's max_linear_speed, if not 0
+  double min_goal_angular_speed = 0.02;  // [rad/s] a pose goal's max_angular_speed, if not 0
+  double non_physical_factor = 3.0;      // twists faster than this x the limits are refused
+};
+
+struct RobotLinkConfig {
+  std::string bus = "udp_multicast:239.74.163.2:43113";
+  kinematics::ArmModel model;
+  canopen::MasterConfig can;
+  MotionLimits limits;
+  CommandLimits command_limits;
+  Workspace workspace;
+  double position_gain = 5.0;
+  double orientation_gain = 5.0;
+  double joint_gain = 5.0;
+  Micros enable_timeout = 3'000'000;
+  // SCHED_FIFO priority of the control loop (1..99; 0 = normal scheduling).
+  // The drives quick-stop when the link's RPDOs stop for
+  // can.drive_rpdo_timeout_ms (25 ms): on a loaded computer a stalled loop
+  // would stop the arm. Needs root or CAP_SYS_NICE; refused, it is a warning.
+  int realtime_priority = 0;
+  // A new pose goal whose Cartesian path the dry run finds stuck is solved
+  // by IK and run in joint space (plan_pose_goal). Off: always Cartesian, as
+  // before (tests compare the two).
+  bool pose_goal_joint_fallback = true;
+  DryRunOptions dry_run;
+  // Iterations of that IK (kinematics::PoseSolver) per control period (15-30
+  // us each on the shared 2-core machine), run after the period's SYNC: the
+  // search (at most 9000 iterations) is spread over periods so SYNC stays on
+  // time.
+  int ik_iterations_per_period = 150;
+  // Whom the link obeys (docs/security.md): ROBOT_COMMAND from the one bound
+  // controller, RESET_FAULT and an e-stop clear from the operators; all
+  // signed with the robot's key (a sim key is refused on socketcan).
+  security::AuthorityConfig authority;
+
+  static RobotLinkConfig from_config(const config::Node& root);
+};
+
+}  // namespace harvest::arm
