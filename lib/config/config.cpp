@@ -1,6 +1,7 @@
 #include "config/config.hpp"
 
 #include <algorithm>
+#include <map>
 
 #include <fstream>
 #include <sstream>
@@ -167,6 +168,27 @@ void check_text(const std::string& text, const std::string& name) {
     i += n;
   }
 }
+
+// YAML wants the keys of a mapping unique, yaml-cpp does not check: a key
+// written twice would be read one way and emitted (--check-config, CONFIG)
+// another. Names the key and both lines.
+void check_unique_keys(const YAML::Node& n, const std::string& name) {
+  if (n.IsMap()) {
+    std::map<std::string, int> line_of;
+    for (const auto& kv : n) {
+      if (kv.first.IsScalar()) {
+        const int line = kv.first.Mark().line + 1;
+        const auto [it, fresh] = line_of.emplace(kv.first.Scalar(), line);
+        if (!fresh)
+          throw Error(name + ":" + std::to_string(line) + ": key '" + kv.first.Scalar() +
+                      "' given twice in one mapping (first on line " + std::to_string(it->second) + ")");
+      }
+      check_unique_keys(kv.second, name);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& item : n) check_unique_keys(item, name);
+  }
+}
 }  // namespace
 
 Document Document::load_file(const std::filesystem::path& file) {
@@ -191,6 +213,7 @@ Document Document::load_string(const std::string& text, const std::string& name)
   }
   if (d.tree_.IsNull()) d.tree_ = YAML::Node(YAML::NodeType::Map);
   if (!d.tree_.IsMap()) throw Error(name + ": expected a mapping at the top level");
+  check_unique_keys(d.tree_, name);
   return d;
 }
 

@@ -94,6 +94,17 @@ TEST(Config, OverridesApplyBeforeReading) {
 // An override's key path names keys and stays shallow: hundreds of parts
 // once emitted a configuration that did not load again (config_loader_fuzz,
 // regression-override-path-depth in its corpus).
+// A key given twice is an error naming both lines (yaml-cpp keeps both: one
+// was read, the other emitted; config_loader_fuzz,
+// regression-duplicate-key in its corpus).
+TEST(Config, AKeyGivenTwiceIsRefusedWithBothLines) {
+  EXPECT_EQ(error_of([] { Document::load_string("a: 1\nb:\n  c: 2\n  c: 3\n", "d.yaml"); }),
+            "d.yaml:4: key 'c' given twice in one mapping (first on line 3)");
+  EXPECT_THROW(Document::load_string("a: 1\na: 1\n", "d.yaml"), Error);
+  EXPECT_THROW(Document::load_string("l:\n  - {x: 1, x: 2}\n", "d.yaml"), Error);
+  EXPECT_NO_THROW(Document::load_string("a: {x: 1}\nb: {x: 1}\n", "d.yaml"));  // same key, other mappings
+}
+
 TEST(Config, OverrideKeyPathsAreNonEmptyAndShallow) {
   auto doc = Document::load_string("a: 1\n", "o.yaml");
   EXPECT_THROW(doc.apply_override("x..y=1"), Error);
