@@ -171,11 +171,16 @@ void check_text(const std::string& text, const std::string& name) {
 
 // YAML wants the keys of a mapping unique, yaml-cpp does not check: a key
 // written twice would be read one way and emitted (--check-config, CONFIG)
-// another. Names the key and both lines.
+// another. Names the key and both lines. Keys are plain values.
 void check_unique_keys(const YAML::Node& n, const std::string& name) {
   if (n.IsMap()) {
     std::map<std::string, int> line_of;
     for (const auto& kv : n) {
+      // A list or mapping as a key: no component reads one, and yaml-cpp
+      // emits some of them as text that does not load again.
+      if (!kv.first.IsScalar() && !kv.first.IsNull())
+        throw Error(name + ":" + std::to_string(kv.first.Mark().line + 1) +
+                    ": a key must be a plain value, not a list or a mapping");
       if (kv.first.IsScalar()) {
         const int line = kv.first.Mark().line + 1;
         const auto [it, fresh] = line_of.emplace(kv.first.Scalar(), line);
