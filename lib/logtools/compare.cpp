@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -155,6 +156,14 @@ bool ChannelReport::ok(const CompareOptions& o) const {
   return o.allow_unmatched || (only_recorded.empty() && only_replayed.empty());
 }
 
+bool ChannelReport::explained() const {
+  if (differing > 0 || !errors.empty()) return false;
+  const auto all = [](const std::vector<std::string>& why, std::size_t n) {
+    return why.size() == n && std::none_of(why.begin(), why.end(), [](const std::string& w) { return w.empty(); });
+  };
+  return all(only_recorded_why, only_recorded.size()) && all(only_replayed_why, only_replayed.size());
+}
+
 CompareReport compare_logs(const std::vector<rt::LogRecord>& recorded, const std::vector<rt::LogRecord>& replayed,
                            const std::vector<std::string>& channels, const CompareOptions& options) {
   CompareReport report;
@@ -165,6 +174,10 @@ CompareReport compare_logs(const std::vector<rt::LogRecord>& recorded, const std
     auto rep = channel_messages(replayed, channel);
     cr.recorded = rec.size();
     cr.replayed = rep.size();
+    if (!rec.empty()) {
+      cr.first_recorded_time = rec.front().rec->timestamp;
+      cr.last_recorded_time = rec.back().rec->timestamp;
+    }
     for (const auto* side : {&rec, &rep})
       for (const auto& m : *side) {
         if (m.decoded.type == nullptr)
@@ -199,12 +212,14 @@ CompareReport compare_logs(const std::vector<rt::LogRecord>& recorded, const std
       } else {
         cr.only_recorded.push_back(m.index);
         cr.only_recorded_utime.push_back(m.utime);
+        cr.only_recorded_time.push_back(m.rec->timestamp);
       }
     }
     for (const auto& m : rep)
       if (!rep_used[m.index]) {
         cr.only_replayed.push_back(m.index);
         cr.only_replayed_utime.push_back(m.utime);
+        cr.only_replayed_time.push_back(m.rec->timestamp);
       }
 
     for (const auto& [a, b] : pairs) {
@@ -244,10 +259,14 @@ CompareReport compare_logs(const std::vector<rt::LogRecord>& recorded, const std
 std::string format_report(const CompareReport& report, const CompareOptions& options) {
   std::ostringstream os;
   for (const auto& c : report.channels) {
-    os << (c.ok(options) ? "SAME " : "DIFF ") << c.channel << " (" << (c.type.empty() ? "no messages" : c.type)
-       << "): recorded " << c.recorded << ", replayed " << c.replayed << ", paired " << c.matched << ", identical "
-       << c.identical << ", differing " << c.differing << ", only recorded " << c.only_recorded.size()
-       << ", only replayed " << c.only_replayed.size() << "\n";
+    const bool explained_only = !c.ok(options) && c.explained();
+    os << (c.ok(options)    ? "SAME "
+           : explained_only ? "EXPLAINED "
+                            : "DIFF ")
+       << c.channel << " (" << (c.type.empty() ? "no messages" : c.type) << "): recorded " << c.recorded
+       << ", replayed " << c.replayed << ", paired " << c.matched << ", identical " << c.identical << ", differing "
+       << c.differing << ", only recorded " << c.only_recorded.size() << ", only replayed " << c.only_replayed.size()
+       << "\n";
     for (const auto& e : c.errors) os << "    undecodable " << e << "\n";
     for (const auto& d : c.diffs) {
       os << "    message recorded #" << d.recorded_index << " / replayed #" << d.replayed_index << " (utime " << d.utime
@@ -261,18 +280,35 @@ std::string format_report(const CompareReport& report, const CompareOptions& opt
       if (d.num_fields > d.fields.size()) os << "      ... " << d.num_fields - d.fields.size() << " more fields\n";
     }
     if (c.differing > c.diffs.size()) os << "    ... " << c.differing - c.diffs.size() << " more differing messages\n";
-    auto list = [&](const char* what, const std::vector<std::size_t>& idx, const std::vector<int64_t>& ut) {
+    auto list = [&](const char* what, const std::vector<std::size_t>& idx, const std::vector<int64_t>& ut,
+                    const std::vector<std::string>& why) {
       if (idx.empty()) return;
-      os << "    only " << what << ":";
-      for (std::size_t k = 0; k < idx.size() && k < options.max_messages_per_channel; ++k)
-        os << " #" << idx[k] << " (utime " << ut[k] << ")";
-      if (idx.size() > options.max_messages_per_channel) os << " ...";
-      os << "\n";
+      if (why.size() != idx.size()) {  // not explained: the messages
+        os << "    only " << what << ":";
+        for (std::size_t k = 0; k < idx.size() && k < options.max_messages_per_channel; ++k)
+          os << " #" << idx[k] << " (utime " << ut[k] << ")";
+        if (idx.size() > options.max_messages_per_channel) os << " ...";
+        os << "\n";
+        return;
+      }
+      // One line per reason, with how many messages and the first few.
+      std::map<std::string, std::vector<std::size_t>> by_reason;
+      for (std::size_t k = 0; k < idx.size(); ++k) by_reason[why[k]].push_back(k);
+      for (const auto& [reason, ks] : by_reason) {
+        os << "    only " << what << " " << ks.size() << ":";
+        for (std::size_t k = 0; k < ks.size() && k < 3; ++k) os << " #" << idx[ks[k]] << " (utime " << ut[ks[k]] << ")";
+        if (ks.size() > 3) os << " ...";
+        os << " -- " << (reason.empty() ? "NOT EXPLAINED" : reason) << "\n";
+      }
     };
-    list("recorded", c.only_recorded, c.only_recorded_utime);
-    list("replayed", c.only_replayed, c.only_replayed_utime);
+    list("recorded", c.only_recorded, c.only_recorded_utime, c.only_recorded_why);
+    list("replayed", c.only_replayed, c.only_replayed_utime, c.only_replayed_why);
   }
-  os << (report.ok ? "replay matches the recording" : "replay DIFFERS from the recording") << "\n";
+  os << (report.ok          ? "replay matches the recording"
+         : report.explained ? "replay matches the recording where the live nodes had the same input (every "
+                              "difference explained above)"
+                            : "replay DIFFERS from the recording")
+     << "\n";
   return os.str();
 }
 

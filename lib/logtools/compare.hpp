@@ -60,14 +60,22 @@ struct ChannelReport {
   std::size_t recorded = 0, replayed = 0, matched = 0, identical = 0, differing = 0;
   std::vector<std::size_t> only_recorded, only_replayed;  // channel indices
   std::vector<int64_t> only_recorded_utime, only_replayed_utime;
+  std::vector<int64_t> only_recorded_time, only_replayed_time;  // their log times
+  int64_t first_recorded_time = 0, last_recorded_time = 0;      // of the recorded messages (0: none)
+  // Why each unmatched message has no partner (explain_unmatched), "" where
+  // nothing in the logs tells; parallel to only_recorded / only_replayed.
+  std::vector<std::string> only_recorded_why, only_replayed_why;
   std::vector<MessageDiff> diffs;   // the first max_messages_per_channel
   std::vector<std::string> errors;  // undecodable messages
   bool ok(const CompareOptions& o) const;
+  // No differing pair, and every unmatched message explained.
+  bool explained() const;
 };
 
 struct CompareReport {
   std::vector<ChannelReport> channels;
   bool ok = true;
+  bool explained = false;  // not ok, but every difference explained (explain_unmatched)
 };
 
 // Compares, for each channel in `channels`, the recorded messages with the

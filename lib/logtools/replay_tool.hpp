@@ -52,8 +52,8 @@ NodeSpec parse_node_spec(const std::string& spec);
 
 struct ReplayToolOptions {
   std::string input_log;
-  std::string output_log;  // required
-  std::vector<std::string> nodes;  // empty: the nodes and configurations of the log's CONFIG snapshots
+  std::string output_log;              // required
+  std::vector<std::string> nodes;      // empty: the nodes and configurations of the log's CONFIG snapshots
   std::vector<std::string> overrides;  // [LABEL:]key=value
   std::string prefix;
   bool compare = false;

@@ -34,6 +34,7 @@ void ReplayRunner::publish_bytes(const std::string& channel, const void* data, s
       stop_ = true;
     }
   }
+  if (options_.isolated) return;  // the other nodes get the recorded message instead
   Pending p{channel, std::vector<uint8_t>(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + size)};
   pending_.push_back(std::move(p));
 }
@@ -92,7 +93,7 @@ ReplayResult ReplayRunner::run() {
     }
     const std::string logical = logical_channel(ev->channel);
     if (logical.empty() && !prefix().empty()) continue;
-    if (advertised().count(logical)) {
+    if (advertised().count(logical) && !options_.isolated) {  // regenerated: not fed in
       ++result_.events_skipped;
       continue;
     }

@@ -10,9 +10,8 @@
 // The same log and configuration give a byte-identical output log.
 #pragma once
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <deque>
+#include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <optional>
 #include <set>
@@ -30,12 +29,19 @@ struct ReplayOptions {
   bool copy_inputs = false;        // also copy the input events to the output log
   std::optional<Micros> end_time;  // stop after this log time (default: last event)
   Micros tail = 0;                 // keep firing timers this long after the last event
+  // Every node against the recording: recorded events on the channels the
+  // nodes regenerate are fed in too, and what the nodes publish goes to the
+  // output log only, not to the other nodes. Each node then sees exactly what
+  // its live twin saw (a detection when the live detector published it, not
+  // at its camera frame's time), which is what comparing a live recording
+  // needs; chaining (the default) is for running new code over old inputs.
+  bool isolated = false;
 };
 
 struct ReplayResult {
   int64_t events_read = 0;
-  int64_t events_delivered = 0;    // input events some node subscribed to
-  int64_t events_skipped = 0;      // on channels a node regenerates
+  int64_t events_delivered = 0;  // input events some node subscribed to
+  int64_t events_skipped = 0;    // on channels a node regenerates (none when isolated)
   int64_t messages_published = 0;
   int64_t timers_fired = 0;
   Micros first_time = 0;

@@ -94,6 +94,63 @@ TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
   EXPECT_NE(out.find("[recorder] recording to "), std::string::npos) << out;
 }
 
+// Issue 22 item 4 (in part): a fresh recording of the demo replays in one
+// command (harvest-replay LOG: the nodes and configurations from the log's
+// CONFIG snapshots, each node against what its live twin received). The
+// detectors and the reconstructor come out the same, every difference
+// explained (the last frames the live processes did not answer before the
+// demo stopped them). The servo controller's timer runs at the phase of its
+// live start, which the log does not hold: its channels are reported, not
+// required to match (docs/replay.md).
+TEST(Demo, AFreshRecordingReplaysTheSameOrWithEveryDifferenceExplained) {
+  ht::TempDir dir;
+  std::string out;
+  ASSERT_EQ(run_demo({"--set", "config/sets/sim-direct.yaml", "--scenario", "config/scenarios/experiment1.yaml",
+                      "--seeds", "7", "--image-rate", "0", "--split-mb", "0"},
+                     dir.path(), &out),
+            0)
+      << out;
+  std::vector<fs::path> logs;
+  for (const auto& e : fs::directory_iterator(dir / "out"))
+    if (e.path().filename().string().rfind("run0-", 0) == 0 && e.path().string().find(".lcm") != std::string::npos)
+      logs.push_back(e.path());
+  ASSERT_EQ(logs.size(), 1u) << out;
+  ht::ChildProcess replay({ht::bin("harvest-replay"), logs.front().string()}, dir / "replay.txt");
+  replay.wait(std::chrono::seconds(120));
+  const std::string report = replay.output();
+  std::printf("%s\n", report.c_str());
+  EXPECT_NE(report.find("nodes from the log's CONFIG snapshots: "), std::string::npos) << report;
+  for (const char* channel : {"FRUIT_FIXED", "FRUIT_HAND"}) {
+    EXPECT_TRUE(report.find(std::string("SAME ") + channel) != std::string::npos ||
+                report.find(std::string("EXPLAINED ") + channel) != std::string::npos)
+        << channel << "\n"
+        << report;
+  }
+  // Targets: live, a detection and the robot state of its instant reach the
+  // reconstructor in the order of its own socket's receive stamps, which may
+  // differ by tens of microseconds from the recorder's: now and then (1 of
+  // 890 in one run) a target pairs with the neighbouring state. Nearly all
+  // are identical, and every unpaired one is explained.
+  const std::smatch m = [&] {
+    std::smatch r;
+    std::regex_search(
+        report, r,
+        std::regex(
+            R"((SAME|EXPLAINED|DIFF) TARGETS \(harvest.targets_t\): recorded \d+, replayed \d+, paired (\d+), identical (\d+))"));
+    return r;
+  }();
+  ASSERT_EQ(m.size(), 4u) << report;
+  const double paired = std::stod(m[2].str()), identical = std::stod(m[3].str());
+  EXPECT_GT(paired, 300) << report;
+  EXPECT_GE(identical, 0.98 * paired) << report;
+  const auto targets_block = report.substr(report.find(" TARGETS ("));
+  EXPECT_EQ(targets_block.substr(0, targets_block.find("\n", targets_block.find("\n") + 1) + 1).find("NOT EXPLAINED"),
+            std::string::npos)
+      << report;
+  for (const char* channel : {"ROBOT_COMMAND", "HARVEST_STATUS"})
+    EXPECT_NE(report.find(channel), std::string::npos) << channel << " not compared\n" << report;
+}
+
 // The field-faithful set: the simulator plays only the hardware; the robot
 // link drives the arm's CiA 402 drives over the virtual CAN bus and the
 // end-effector bridge talks to the board over TCP. Two demos at once on this

@@ -1,5 +1,3 @@
-#include "runtime/replay_runner.hpp"
-
 #include <gtest/gtest.h>
 
 #include <harvest/config_snapshot_t.hpp>
@@ -8,6 +6,7 @@
 
 #include "runtime/heartbeat.hpp"
 #include "runtime/log_io.hpp"
+#include "runtime/replay_runner.hpp"
 #include "test_nodes.hpp"
 #include "test_support.hpp"
 
@@ -69,7 +68,9 @@ TEST(Replay, ANodeThatReadsTheWallClockIsCaught) {
   ht::WallClockNode a("IN", "OUT", 2.0), b("IN", "OUT", 2.0);
   replay(dir / "in.log", dir / "out1.log", {&a});
   // Make sure the wall clock moves between the two replays.
-  struct timespec ts {0, 2'000'000};
+  struct timespec ts {
+    0, 2'000'000
+  };
   nanosleep(&ts, nullptr);
   replay(dir / "in.log", dir / "out2.log", {&b});
   const auto diff = rt::first_difference(rt::read_log(dir / "out1.log"), rt::read_log(dir / "out2.log"));
@@ -89,10 +90,10 @@ TEST(Replay, DerivedMessagesCarryTheirInputsTimeAndSeq) {
     auto m = rt::decode<ir_range_t>(out[i].data);
     ASSERT_TRUE(m);
     const rt::Micros t = kT0 + static_cast<rt::Micros>(i) * 33'333;
-    EXPECT_EQ(m->header.utime, t - 2000);              // sensing time of the input
-    EXPECT_EQ(m->header.source_seq, int64_t(i));       // the input that caused it
-    EXPECT_EQ(m->header.seq, int64_t(i));              // own per-channel sequence
-    EXPECT_EQ(m->header.publish_utime, t);             // log time of the input
+    EXPECT_EQ(m->header.utime, t - 2000);         // sensing time of the input
+    EXPECT_EQ(m->header.source_seq, int64_t(i));  // the input that caused it
+    EXPECT_EQ(m->header.seq, int64_t(i));         // own per-channel sequence
+    EXPECT_EQ(m->header.publish_utime, t);        // log time of the input
     EXPECT_EQ(out[i].timestamp, t);
     EXPECT_FLOAT_EQ(m->range_m, 0.02f * i);
   }
@@ -115,6 +116,35 @@ TEST(Replay, TimersFireAtLogTime) {
   // Ticks are interleaved with the inputs in time order.
   const auto all = rt::read_log(dir / "out.log");
   for (std::size_t i = 1; i < all.size(); ++i) EXPECT_LE(all[i - 1].timestamp, all[i].timestamp);
+}
+
+// Isolated (each node against the recording): the second node gets the
+// recorded OUT at its recorded times, not the first node's regenerated one,
+// and what the first publishes still goes to the output log.
+TEST(Replay, IsolatedNodesReceiveTheRecordingNotEachOther) {
+  TempDir dir;
+  auto in = make_input();
+  for (int i = 0; i < 10; ++i) in.push_back({kT0 + 3'000'000 + i, "OUT", rt::encode(ht::make_ir(0, 999, 9.f))});
+  std::sort(in.begin(), in.end(), [](auto& a, auto& b) { return a.timestamp < b.timestamp; });
+  rt::write_log(dir / "in.log", in);
+  ScaleNode first("IN", "OUT", 2.0, false), second("OUT", "OUT2", 3.0, false);
+  rt::ReplayOptions opt;
+  opt.input_log = dir / "in.log";
+  opt.output_log = dir / "out.log";
+  opt.isolated = true;
+  rt::ReplayRunner runner(opt);
+  runner.add(first);
+  runner.add(second);
+  const auto res = runner.run();
+  EXPECT_EQ(res.events_skipped, 0);
+  EXPECT_EQ(first.received, 60);
+  EXPECT_EQ(second.received, 10);  // the recorded OUT only
+  const auto out = rt::read_log(dir / "out.log");
+  EXPECT_EQ(on_channel(out, "OUT").size(), 60u);
+  const auto out2 = on_channel(out, "OUT2");
+  ASSERT_EQ(out2.size(), 10u);
+  EXPECT_FLOAT_EQ(rt::decode<ir_range_t>(out2[0].data)->range_m, 27.f);
+  EXPECT_EQ(out2[0].timestamp, kT0 + 3'000'000);
 }
 
 TEST(Replay, TailKeepsTimersGoing) {
@@ -150,9 +180,9 @@ TEST(Replay, MalformedMessagesAreCountedNotFatal) {
   auto good = rt::encode(ht::make_ir(kT0, 5, 1.f));
   std::vector<uint8_t> truncated(good.begin(), good.begin() + static_cast<long>(good.size() / 2));
   gripper_state_t other{};
-  in.push_back({kT0 + 400'000, "IN", truncated});                       // truncated bytes
-  in.push_back({kT0 + 400'001, "IN", rt::encode(other)});               // wrong fingerprint
-  in.push_back({kT0 + 400'002, "IN", {}});                              // empty
+  in.push_back({kT0 + 400'000, "IN", truncated});                              // truncated bytes
+  in.push_back({kT0 + 400'001, "IN", rt::encode(other)});                      // wrong fingerprint
+  in.push_back({kT0 + 400'002, "IN", {}});                                     // empty
   in.push_back({kT0 + 400'003, "IN", rt::encode(ht::make_ir(kT0, 77, 1.f))});  // still processed after
   rt::write_log(dir / "in.log", in);
   ScaleNode a("IN", "OUT", 1.0, false);
