@@ -236,6 +236,7 @@ void Document::apply_override(const std::string& assignment) {
   } catch (const YAML::Exception& e) {
     throw Error("override '" + assignment + "': bad value: " + e.msg);
   }
+  check_unique_keys(value, "override '" + assignment + "'");  // the value's keys, as a file's
   std::vector<std::string> parts;
   std::stringstream ss(key);
   for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);

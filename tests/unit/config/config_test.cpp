@@ -164,6 +164,11 @@ TEST(Config, AListOrMappingAsAKeyIsAConfigurationError) {
             "k.yaml:3: a key must be a plain value, not a list or a mapping");
   EXPECT_THROW(Document::load_string("d:\n  []: ~\n", "k.yaml"), Error);
   EXPECT_THROW(Document::load_string("l:\n  - {[1]: 2}\n", "k.yaml"), Error);
+  // The same in an override's value (regression-override-sequence-key).
+  auto doc = Document::load_string("a: 1\n", "k.yaml");
+  EXPECT_THROW(doc.apply_override("a.b=[1;,F2]:"), Error);
+  EXPECT_THROW(doc.apply_override("a.b={x: 1, x: 2}"), Error);
+  EXPECT_NO_THROW(Document::load_string(doc.emit(), "<effective>"));
 }
 
 TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
