@@ -37,11 +37,17 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
       static_cast<uint16_t>(node.get<int>("drive_heartbeat_timeout_ms", c.drive_heartbeat_timeout_ms, {2, 10000}));
   c.drive_rpdo_timeout_ms =
       static_cast<uint16_t>(node.get<int>("drive_rpdo_timeout_ms", c.drive_rpdo_timeout_ms, {1, 10000}));
+  {
+    static const std::vector<std::string> kChoices{"pre_operational", "operational", "stopped", "leave"};
+    const std::string behaviour = node.choice("drive_communication_error", "operational", kChoices);
+    const auto at = std::find(kChoices.begin(), kChoices.end(), behaviour) - kChoices.begin();
+    c.drive_communication_error = static_cast<int8_t>(at == 3 ? -1 : at);
+  }
   if (c.drive_heartbeat_timeout_ms <= c.master_heartbeat_ms)
     node.fail("drive_heartbeat_timeout_ms", "a value greater than master_heartbeat_ms");
   if (Micros{c.drive_rpdo_timeout_ms} * 1000 <= c.sync_period)
-    node.fail("drive_rpdo_timeout_ms", "a value greater than the SYNC period (" + std::to_string(c.sync_period / 1000) +
-                                           " ms)");
+    node.fail("drive_rpdo_timeout_ms",
+              "a value greater than the SYNC period (" + std::to_string(c.sync_period / 1000) + " ms)");
   // The drive list usually lives in its own file, shared with the simulated drives.
   // No assignment between config::Node values here: a yaml-cpp node assigned
   // to another overwrites the content of the node it refers to (the `can`
@@ -143,6 +149,7 @@ void Master::configure_next(std::size_t i, std::size_t step, Micros now) {
   protection.master_node = config_.master_node;
   protection.heartbeat_consumer_ms = config_.drive_heartbeat_timeout_ms;
   protection.rpdo_timeout_ms = config_.drive_rpdo_timeout_ms;
+  protection.communication_error_behaviour = config_.drive_communication_error;
   protection.quick_stop_deceleration =
       static_cast<uint32_t>(std::min(4.0e9, std::round(dc.quick_stop_deceleration * std::abs(dc.counts_per_radian))));
   const auto writes = default_drive_configuration(dc.node_id, config_.heartbeat_ms, protection);
@@ -253,12 +260,14 @@ void Master::on_foreign(const CanFrame& f) {
       std::snprintf(where, sizeof where, "0x%04X:%02X", index, sub);
       if (f.dlc >= 1 && sdo::specifier(f) == sdo::kClientInitiateDownload)
         return latch(i, &DriveStatus::foreign, std::string("an SDO write to ") + where + " we did not send");
-      if (events_.size() < 100) events_.push_back("joint " + std::to_string(i + 1) + ": another SDO client reads " + where);
+      if (events_.size() < 100)
+        events_.push_back("joint " + std::to_string(i + 1) + ": another SDO client reads " + where);
       return;
     }
     char id[8];
     std::snprintf(id, sizeof id, "0x%03X", f.id);
-    return latch(i, &DriveStatus::foreign, std::string("an RPDO ") + id + " we did not send (another master on the bus)");
+    return latch(i, &DriveStatus::foreign,
+                 std::string("an RPDO ") + id + " we did not send (another master on the bus)");
   }
   if (f.dlc < 2) return latch_bus("a malformed NMT frame from another master");
   const uint8_t target = f.data[1];
@@ -325,8 +334,8 @@ void Master::on_tpdo1(std::size_t i, uint16_t statusword, int32_t position, Micr
     latch(i, &DriveStatus::fault, std::string("drive state ") + to_string(d.state));
   } else if (d.seen_pdo && !commanded_transition(before, d.state, d.controlword, d.previous_controlword)) {
     ++counters_["can_uncommanded_state_changes"];
-    latch(i, &DriveStatus::uncommanded, std::string("state changed from ") + to_string(before) + " to " +
-                                            to_string(d.state) + " without a command");
+    latch(i, &DriveStatus::uncommanded,
+          std::string("state changed from ") + to_string(before) + " to " + to_string(d.state) + " without a command");
   }
   d.seen_pdo = true;
 }

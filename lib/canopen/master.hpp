@@ -28,8 +28,8 @@ std::string bus_from_config(const config::Node& node, const std::string& key, co
 
 struct DriveConfig {
   uint8_t node_id = 1;
-  double counts_per_radian = 1.0;  // encoder counts per joint radian (gear included; sign = direction)
-  int32_t zero_offset_counts = 0;  // counts at joint angle 0
+  double counts_per_radian = 1.0;        // encoder counts per joint radian (gear included; sign = direction)
+  int32_t zero_offset_counts = 0;        // counts at joint angle 0
   double quick_stop_deceleration = 0.0;  // [rad/s^2] written to the drive (0x6085); 0 = the drive's own
 };
 
@@ -47,6 +47,7 @@ struct MasterConfig {
   uint16_t master_heartbeat_ms = 10;
   uint16_t drive_heartbeat_timeout_ms = 50;  // drive: master's heartbeat lost -> quick stop (0x1016)
   uint16_t drive_rpdo_timeout_ms = 25;       // drive: no RPDO1 this long -> quick stop (0x1400:05)
+  int8_t drive_communication_error = 1;  // drive: NMT state on a communication error (0x1029:01), see DriveProtection
 
   // Reads the `can` mapping of a robot-link configuration; the drive list is
   // `drives` there or in the file `drives_file`. Throws config::Error.

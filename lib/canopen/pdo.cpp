@@ -59,9 +59,12 @@ std::vector<SdoWrite> default_drive_configuration(uint8_t node, uint16_t heartbe
   // Drive-side protection: the drive stops the joint itself when the master is gone.
   if (p.quick_stop_deceleration > 0) writes.push_back({od::kQuickStopDeceleration, 0, p.quick_stop_deceleration, 4});
   writes.push_back({od::kAbortConnectionOption, 0, static_cast<uint16_t>(p.abort_connection_option), 2});
+  if (p.communication_error_behaviour >= 0)
+    writes.push_back({od::kErrorBehaviour, 1, static_cast<uint8_t>(p.communication_error_behaviour), 1});
   if (p.rpdo_timeout_ms > 0) writes.push_back({od::kRpdoComm, 5, p.rpdo_timeout_ms, 2});
   if (p.master_node > 0 && p.heartbeat_consumer_ms > 0)
-    writes.push_back({od::kHeartbeatConsumer, 1, (static_cast<uint32_t>(p.master_node) << 16) | p.heartbeat_consumer_ms, 4});
+    writes.push_back(
+        {od::kHeartbeatConsumer, 1, (static_cast<uint32_t>(p.master_node) << 16) | p.heartbeat_consumer_ms, 4});
   return writes;
 }
 

@@ -38,11 +38,17 @@ struct SdoWrite {
 // the abort connection option (CiA 402 0x6007) quick stop, at its quick-stop
 // deceleration (0x6085). 0 leaves an item as the drive has it.
 struct DriveProtection {
-  uint8_t master_node = 0;                // whose heartbeat the drive consumes (0 = none)
-  uint16_t heartbeat_consumer_ms = 0;     // 0x1016:01 consumer time
-  uint16_t rpdo_timeout_ms = 0;           // 0x1400:05 RPDO1 event timer (deadline)
-  int16_t abort_connection_option = 3;    // 0x6007: 0 none, 1 fault, 2 disable voltage, 3 quick stop
-  uint32_t quick_stop_deceleration = 0;   // 0x6085 [counts/s^2]
+  uint8_t master_node = 0;               // whose heartbeat the drive consumes (0 = none)
+  uint16_t heartbeat_consumer_ms = 0;    // 0x1016:01 consumer time
+  uint16_t rpdo_timeout_ms = 0;          // 0x1400:05 RPDO1 event timer (deadline)
+  int16_t abort_connection_option = 3;   // 0x6007: 0 none, 1 fault, 2 disable voltage, 3 quick stop
+  uint32_t quick_stop_deceleration = 0;  // 0x6085 [counts/s^2]
+  // 0x1029:01, the NMT state a communication error sends the drive to: 0
+  // pre-operational (the CiA 301 default), 1 no change, 2 stopped; -1 leaves
+  // it as the drive has it. 1 keeps the TPDOs coming while the drive stops
+  // itself, so the master still sees the joints (pre-operational and stopped
+  // end them: the master's last reading would freeze mid-ramp).
+  int8_t communication_error_behaviour = 1;
 };
 
 // The writes, in order, that put a drive into cyclic synchronous velocity

@@ -497,6 +497,9 @@ TEST(RobotLinkProcess, CheckConfigRefusesBadValiditiesAndUnknownBusTransports) {
   auto [rc3, out3] = check("harvest-sim-drives", "config/arm/sim_drives.yaml", "bus=udp_multicast:239.1.2.3:7?ttl=x");
   EXPECT_EQ(rc3, 2) << out3;
   EXPECT_NE(out3.find("bad ttl 'x'"), std::string::npos) << out3;
+  auto [rc5, out5] = check("harvest-robot-link", "config/arm/robot_link.yaml", "can.drive_communication_error=reset");
+  EXPECT_EQ(rc5, 2) << out5;
+  EXPECT_NE(out5.find("one of {pre_operational, operational, stopped, leave}, got 'reset'"), std::string::npos) << out5;
   // A controller workspace outside the link's envelope: refused at start.
   auto [rc4, out4] = check("harvest-servo-controller", "config/servo/controller.yaml", "workspace.max=[0.8, 1.4, 0.3]");
   EXPECT_EQ(rc4, 2) << out4;

@@ -86,6 +86,21 @@ class MasterWithDrives : public ::testing::Test {
     run(0.1);
     ASSERT_TRUE(master_->all_in(canopen::Cia402State::kOperationEnabled));
   }
+  // Moving, the arm is stopped (an e-stop: quick stop, zero velocity); 20 ms
+  // into the ramp the master stalls 30 ms (past the 25 ms RPDO deadline),
+  // then both run 0.5 s.
+  void stop_and_stall() {
+    master_->set_velocities({0.5, -0.5});
+    run(0.5);
+    master_->set_goal(DriveGoal::kQuickStop);
+    master_->set_velocities({0.0, 0.0});
+    run(0.02);
+    ASSERT_GT(std::abs(master_->drives()[0].velocity), 0.2) << "still ramping down";
+    emcy_heard(1);
+    run_drives(0.03);
+    EXPECT_EQ(emcy_heard(1), std::vector<uint16_t>{0x8250});
+    run(0.5);
+  }
 
   can::MemoryWire wire_;
   can::MemoryBus& master_bus_ = wire_.attach();
@@ -251,7 +266,40 @@ TEST_F(MasterWithDrives, DrivesQuickStopThemselvesWhenTheMasterFallsSilent) {
   run_drives(0.5 / 9.0 + 0.002);
   EXPECT_EQ(drives_->drive(0).velocity(), 0.0) << "stopped at 9 rad/s^2";
   EXPECT_EQ(drives_->drive(1).velocity(), 0.0);
-  EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kPreOperational) << "0x1029:01 = 0";
+  EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kOperational) << "0x1029:01 = 1: no NMT change";
+}
+
+// The link's loop stalls past the RPDO deadline while the arm ramps down from
+// an e-stop (a loaded computer), then goes on. The drives stop themselves and,
+// left operational (0x1029:01 = 1), keep sending their TPDOs: the master sees
+// the joints come to rest. At the CiA 301 default (pre-operational) the TPDOs
+// end and the master's reading freezes mid-ramp: the arm looks as if it moved.
+TEST_F(MasterWithDrives, AfterAStallTheMasterStillSeesTheDrivesStop) {
+  remake_master([](canopen::MasterConfig& c) {
+    for (auto& d : c.drives) d.quick_stop_deceleration = 9.0;
+  });
+  start_and_enable();
+  EXPECT_EQ(drives_->drive(0).dictionary().get(0x1029, 1), 1u) << "0x1029:01 written: no NMT change";
+  stop_and_stall();
+  EXPECT_EQ(drives_->drive(0).velocity(), 0.0);
+  EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kOperational);
+  EXPECT_EQ(master_->drives()[0].velocity, 0.0) << "the master saw the joint stop";
+  EXPECT_EQ(master_->drives()[1].velocity, 0.0);
+  EXPECT_FALSE(master_->drives()[0].pdo_lost);
+}
+
+TEST_F(MasterWithDrives, AtTheCia301DefaultAStallFreezesTheMastersReading) {
+  remake_master([](canopen::MasterConfig& c) {
+    c.drive_communication_error = 0;  // pre-operational
+    for (auto& d : c.drives) d.quick_stop_deceleration = 9.0;
+  });
+  start_and_enable();
+  EXPECT_EQ(drives_->drive(0).dictionary().get(0x1029, 1), 0u);
+  stop_and_stall();
+  EXPECT_EQ(drives_->drive(0).velocity(), 0.0) << "the drive stopped itself";
+  EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kPreOperational);
+  EXPECT_GT(std::abs(master_->drives()[0].velocity), 0.05) << "the last TPDO before pre-operational";
+  EXPECT_TRUE(master_->drives()[0].pdo_lost);
 }
 
 // Without an RPDO deadline (a drive that has none), the consumed heartbeat
@@ -301,10 +349,10 @@ TEST_F(MasterWithDrives, RpdoSyncOrSdoWriteFromAnotherMasterIsAFault) {
 }
 
 TEST_F(MasterWithDrives, ForgedHeartbeatsAndExtraTpdosAreFaults) {
-  for (const auto& [state, text] : std::vector<std::pair<uint8_t, std::string>>{
-           {0x04, "left operational (heartbeat: stopped)"},
-           {0x7F, "left operational (heartbeat: pre-operational)"},
-           {0x00, "rebooted (boot-up message)"}}) {
+  for (const auto& [state, text] :
+       std::vector<std::pair<uint8_t, std::string>>{{0x04, "left operational (heartbeat: stopped)"},
+                                                    {0x7F, "left operational (heartbeat: pre-operational)"},
+                                                    {0x00, "rebooted (boot-up message)"}}) {
     start_and_enable();
     forge(0x701, {state});
     run(0.02);
