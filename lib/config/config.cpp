@@ -1,9 +1,8 @@
 #include "config/config.hpp"
 
 #include <algorithm>
-#include <map>
-
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace harvest::config {
@@ -11,11 +10,16 @@ namespace harvest::config {
 namespace detail {
 std::string describe(const YAML::Node& n) {
   switch (n.Type()) {
-    case YAML::NodeType::Null: return "nothing";
-    case YAML::NodeType::Scalar: return "'" + n.Scalar() + "'";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a mapping";
-    default: return "an undefined value";
+    case YAML::NodeType::Null:
+      return "nothing";
+    case YAML::NodeType::Scalar:
+      return "'" + n.Scalar() + "'";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    default:
+      return "an undefined value";
   }
 }
 }  // namespace detail
@@ -172,27 +176,51 @@ void check_text(const std::string& text, const std::string& name) {
 // YAML wants the keys of a mapping unique, yaml-cpp does not check: a key
 // written twice would be read one way and emitted (--check-config, CONFIG)
 // another. Names the key and both lines. Keys are plain values.
-void check_unique_keys(const YAML::Node& n, const std::string& name) {
+// Walks the loaded tree once. Aliases make it a graph: one that refers to
+// itself (`&a` on a mapping holding `*a`) has no bottom, and aliases of
+// aliases expand exponentially ("billion laughs"), so the walk is bounded in
+// depth and in values visited; every other walk of the tree (unused keys, the
+// effective configuration) comes after this one.
+constexpr std::size_t kMaxDepth = 64;
+constexpr std::size_t kMaxValues = 100'000;
+struct TreeWalk {
+  const std::string& name;
+  std::size_t values = 0;
+};
+
+void check_tree(const YAML::Node& n, TreeWalk& walk, std::size_t depth) {
+  const auto line = [&] { return std::to_string(n.Mark().line + 1); };
+  if (depth > kMaxDepth)
+    throw Error(walk.name + ":" + line() + ": nested deeper than " + std::to_string(kMaxDepth) +
+                " levels (an alias that refers to itself?)");
+  if (++walk.values > kMaxValues)
+    throw Error(walk.name + ": more than " + std::to_string(kMaxValues) +
+                " values with its aliases expanded (aliases of aliases?)");
   if (n.IsMap()) {
     std::map<std::string, int> line_of;
     for (const auto& kv : n) {
       // A list or mapping as a key: no component reads one, and yaml-cpp
       // emits some of them as text that does not load again.
       if (!kv.first.IsScalar() && !kv.first.IsNull())
-        throw Error(name + ":" + std::to_string(kv.first.Mark().line + 1) +
+        throw Error(walk.name + ":" + std::to_string(kv.first.Mark().line + 1) +
                     ": a key must be a plain value, not a list or a mapping");
       if (kv.first.IsScalar()) {
-        const int line = kv.first.Mark().line + 1;
-        const auto [it, fresh] = line_of.emplace(kv.first.Scalar(), line);
+        const int key_line = kv.first.Mark().line + 1;
+        const auto [it, fresh] = line_of.emplace(kv.first.Scalar(), key_line);
         if (!fresh)
-          throw Error(name + ":" + std::to_string(line) + ": key '" + kv.first.Scalar() +
+          throw Error(walk.name + ":" + std::to_string(key_line) + ": key '" + kv.first.Scalar() +
                       "' given twice in one mapping (first on line " + std::to_string(it->second) + ")");
       }
-      check_unique_keys(kv.second, name);
+      check_tree(kv.second, walk, depth + 1);
     }
   } else if (n.IsSequence()) {
-    for (const auto& item : n) check_unique_keys(item, name);
+    for (const auto& item : n) check_tree(item, walk, depth + 1);
   }
+}
+
+void check_tree(const YAML::Node& n, const std::string& name) {
+  TreeWalk walk{name};
+  check_tree(n, walk, 0);
 }
 }  // namespace
 
@@ -218,7 +246,7 @@ Document Document::load_string(const std::string& text, const std::string& name)
   }
   if (d.tree_.IsNull()) d.tree_ = YAML::Node(YAML::NodeType::Map);
   if (!d.tree_.IsMap()) throw Error(name + ": expected a mapping at the top level");
-  check_unique_keys(d.tree_, name);
+  check_tree(d.tree_, name);
   return d;
 }
 
@@ -227,8 +255,7 @@ Node Document::root() const { return Node(tree_, "", shared_); }
 void Document::apply_override(const std::string& assignment) {
   check_text(assignment, "--set override");  // it lands in the emitted configuration too
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw Error("override '" + assignment + "': expected KEY.PATH=VALUE");
+  if (eq == std::string::npos || eq == 0) throw Error("override '" + assignment + "': expected KEY.PATH=VALUE");
   const std::string key = assignment.substr(0, eq);
   YAML::Node value;
   try {
@@ -236,7 +263,7 @@ void Document::apply_override(const std::string& assignment) {
   } catch (const YAML::Exception& e) {
     throw Error("override '" + assignment + "': bad value: " + e.msg);
   }
-  check_unique_keys(value, "override '" + assignment + "'");  // the value's keys, as a file's
+  check_tree(value, "override '" + assignment + "'");  // the value's keys, as a file's
   std::vector<std::string> parts;
   std::stringstream ss(key);
   for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);

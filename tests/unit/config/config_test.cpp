@@ -55,8 +55,7 @@ TEST(Config, WrongTypeIsAnError) {
 TEST(Config, OutOfRangeIsAnError) {
   auto doc = Document::load_string("speed: 2.0\nn: -1\n", "arm.yaml");
   auto msg = error_of([&] { doc.root().required<double>("speed", Range<double>{0.0, 0.381}); });
-  EXPECT_NE(msg.find("arm.yaml: speed: expected a number in [0.000000, 0.381000], got 2.0"), std::string::npos)
-      << msg;
+  EXPECT_NE(msg.find("arm.yaml: speed: expected a number in [0.000000, 0.381000], got 2.0"), std::string::npos) << msg;
   msg = error_of([&] { doc.root().get<int>("n", 1, Range<int>{0}); });
   EXPECT_NE(msg.find(">= 0"), std::string::npos) << msg;
 }
@@ -76,8 +75,9 @@ TEST(Config, ChoiceAndNumbers) {
   EXPECT_NE(error_of([&] { doc.root().numbers("k", 5); }).find("a list of 5 numbers, got 3"), std::string::npos);
   EXPECT_NE(error_of([&] { doc.root().numbers("bad"); }).find("element 1"), std::string::npos);
   auto doc2 = Document::load_string("mode: fancy\n", "c.yaml");
-  EXPECT_NE(error_of([&] { doc2.root().choice("mode", "thesis", {"thesis", "improved"}); })
-                .find("one of {thesis, improved}, got 'fancy'"),
+  EXPECT_NE(error_of([&] {
+              doc2.root().choice("mode", "thesis", {"thesis", "improved"});
+            }).find("one of {thesis, improved}, got 'fancy'"),
             std::string::npos);
 }
 
@@ -169,6 +169,36 @@ TEST(Config, AListOrMappingAsAKeyIsAConfigurationError) {
   EXPECT_THROW(doc.apply_override("a.b=[1;,F2]:"), Error);
   EXPECT_THROW(doc.apply_override("a.b={x: 1, x: 2}"), Error);
   EXPECT_NO_THROW(Document::load_string(doc.emit(), "<effective>"));
+}
+
+// Aliases make the tree a graph: one mapping that holds itself, or aliases of
+// aliases that expand exponentially, are refused on load (config_loader_fuzz:
+// a recursive alias overflowed the stack of the key check).
+TEST(Config, RecursiveAliasesAliasBombsAndDeepNestingAreRefused) {
+  EXPECT_NE(error_of([&] {
+              Document::load_string(" &a\ny: *a\nz: 1\n", "r.yaml");
+            }).find("nested deeper than 64 levels (an alias that refers to itself?)"),
+            std::string::npos);
+  std::string bomb = "a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n";
+  for (char c = 'b'; c <= 'h'; ++c) {
+    bomb += std::string(1, c) + ": &" + c + " [";
+    for (int i = 0; i < 10; ++i) bomb += std::string(i ? ", *" : "*") + static_cast<char>(c - 1);
+    bomb += "]\n";
+  }
+  EXPECT_NE(error_of([&] {
+              Document::load_string(bomb, "b.yaml");
+            }).find("more than 100000 values with its aliases expanded"),
+            std::string::npos);
+  const auto nested = [](int levels) { return "a: " + std::string(levels, '[') + std::string(levels, ']') + "\n"; };
+  EXPECT_NO_THROW(Document::load_string(nested(64), "n.yaml"));
+  EXPECT_NE(
+      error_of([&] { Document::load_string(nested(65), "n.yaml"); }).find("n.yaml:1: nested deeper than 64 levels"),
+      std::string::npos);
+  // An alias used twice, as configurations do, is fine.
+  const auto doc = Document::load_string("base: &b {x: 1}\none: *b\ntwo: *b\n", "ok.yaml");
+  EXPECT_EQ(doc.root().child("two").get<int>("x", 0), 1);
+  auto over = Document::load_string("a: 1\n", "o.yaml");
+  EXPECT_THROW(over.apply_override("b=" + nested(70).substr(3)), Error);
 }
 
 TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
