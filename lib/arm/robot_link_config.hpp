@@ -5,14 +5,55 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "arm/motion_safety.hpp"
 #include "canopen/master.hpp"
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "kinematics/arm_model.hpp"
 #include "security/authority.hpp"
 
 namespace harvest::arm {
+
+// The keys of config/arm/robot_link.yaml (the `can` mapping's others are
+// canopen::master_keys, `authority` security::authority_keys).
+namespace link_keys {
+using config::Key;
+using config::Path;
+inline constexpr Key<Path> arm_model{"arm_model", "k1207i.yaml", {}, "",
+                                     "the arm model: DH parameters, joint limits, tool and camera offsets, home"};
+inline constexpr Key<Path> envelope{"envelope", "envelope.yaml", {}, "",
+                                    "the robot envelope: workspace box, speed and acceleration limits"};
+inline constexpr Key<double> quick_stop_deceleration_factor{
+    "quick_stop_deceleration_factor", 10.0, {0.5, 50.0}, "",
+    "the drives' quick-stop ramp (0x6085) = this x the joint's acceleration limit"};
+// limits
+inline constexpr Key<int> default_validity_ms{"default_validity_ms", 100, {10, 1000}, "ms",
+                                              "a command's validity when it says 0 (at most max_validity_ms)"};
+inline constexpr Key<int> max_validity_ms{"max_validity_ms", 1000, {10, 10000}, "ms",
+                                          "longer validities are cut to this"};
+inline constexpr Key<double> min_goal_linear_speed{
+    "min_goal_linear_speed", 0.01, {1e-4, 0.1}, "m/s",
+    "pose goals capped slower are refused (their dry run would never end); at most the envelope's speed"};
+inline constexpr Key<double> min_goal_angular_speed{"min_goal_angular_speed", 0.02, {1e-4, 0.5}, "rad/s",
+                                                    "the same for the angular speed cap"};
+inline constexpr Key<double> non_physical_factor{
+    "non_physical_factor", 3.0, {1.0, 100.0}, "",
+    "twists faster than this x the speed limits are garbage: refused, not clipped"};
+// control
+inline constexpr Key<double> position_gain{"position_gain", 5.0, {0.0, 100.0}, "1/s",
+                                           "feedback gain on the goal trajectory's position"};
+inline constexpr Key<double> orientation_gain{"orientation_gain", 5.0, {0.0, 100.0}, "1/s",
+                                              "feedback gain on its orientation"};
+inline constexpr Key<double> joint_gain{"joint_gain", 5.0, {0.0, 100.0}, "1/s",
+                                        "feedback gain of joint-space trajectories"};
+inline constexpr Key<int> enable_timeout_ms{"enable_timeout_ms", 3000, {100, 60000}, "ms",
+                                            "the drives must reach operation enabled within this"};
+inline constexpr Key<int> realtime_priority{
+    "realtime_priority", 0, {0, 99}, "",
+    "SCHED_FIFO priority of the control loop (0: normal; needs root or CAP_SYS_NICE, refused: a warning)"};
+}  // namespace link_keys
 
 // When a pose goal's Cartesian dry run counts as reaching the goal
 // (dry_run_pose_goal): within these tolerances by the trajectory's end plus
@@ -45,27 +86,27 @@ struct DryRunOptions {
 // beyond `non_physical_factor` times the speed limits is garbage, refused
 // rather than clipped and obeyed at full speed.
 struct CommandLimits {
-  double min_goal_linear_speed = 0.01;   // [m/s] a pose goal's max_linear_speed, if not 0
-  double min_goal_angular_speed = 0.02;  // [rad/s] a pose goal's max_angular_speed, if not 0
-  double non_physical_factor = 3.0;      // twists faster than this x the limits are refused
+  double min_goal_linear_speed = link_keys::min_goal_linear_speed.fallback;    // a pose goal's, if not 0
+  double min_goal_angular_speed = link_keys::min_goal_angular_speed.fallback;  // a pose goal's, if not 0
+  double non_physical_factor = link_keys::non_physical_factor.fallback;  // faster twists are refused
 };
 
 struct RobotLinkConfig {
-  std::string bus = "udp_multicast:239.74.163.2:43113";
+  std::string bus{canopen::kBusKey.fallback};
   kinematics::ArmModel model;
   canopen::MasterConfig can;
   MotionLimits limits;
   CommandLimits command_limits;
   Workspace workspace;
-  double position_gain = 5.0;
-  double orientation_gain = 5.0;
-  double joint_gain = 5.0;
-  Micros enable_timeout = 3'000'000;
+  double position_gain = link_keys::position_gain.fallback;
+  double orientation_gain = link_keys::orientation_gain.fallback;
+  double joint_gain = link_keys::joint_gain.fallback;
+  Micros enable_timeout = link_keys::enable_timeout_ms.fallback * Micros{1000};
   // SCHED_FIFO priority of the control loop (1..99; 0 = normal scheduling).
   // The drives quick-stop when the link's RPDOs stop for
   // can.drive_rpdo_timeout_ms (25 ms): on a loaded computer a stalled loop
   // would stop the arm. Needs root or CAP_SYS_NICE; refused, it is a warning.
-  int realtime_priority = 0;
+  int realtime_priority = link_keys::realtime_priority.fallback;
   // A new pose goal whose Cartesian path the dry run finds stuck is solved
   // by IK and run in joint space (plan_pose_goal). Off: always Cartesian, as
   // before (tests compare the two).
@@ -82,6 +123,7 @@ struct RobotLinkConfig {
   security::AuthorityConfig authority;
 
   static RobotLinkConfig from_config(const config::Node& root);
+  static std::vector<config::Section> schema();
 };
 
 }  // namespace harvest::arm

@@ -11,35 +11,47 @@
 namespace harvest::camera {
 
 CameraConfig CameraConfig::from_yaml(const config::Node& n) {
+  namespace k = camera_keys;
   CameraConfig c;
-  c.camera = n.get<std::string>("camera", c.camera);
-  c.channel = n.get<std::string>("channel", c.camera == "hand" ? channels::kCameraHand : channels::kCameraFixed);
-  c.source = n.choice("source", c.source, {"device", "video", "folder"});
+  c.camera = n.get(k::camera);
+  c.channel = n.get(k::channel, std::string(c.camera == "hand" ? channels::kCameraHand : channels::kCameraFixed));
+  c.source = n.get(k::source);
   const config::Node dev = n.child("device");
-  c.device.device = dev.get<std::string>("path", c.device.device);
-  c.device.width = dev.get("width", c.device.width, {1, 8192});
-  c.device.height = dev.get("height", c.device.height, {1, 8192});
-  c.device.pixel_format = dev.get<std::string>("pixel_format", c.device.pixel_format);
+  c.device.device = dev.get(device_keys::path);
+  c.device.width = dev.get(device_keys::width);
+  c.device.height = dev.get(device_keys::height);
+  c.device.pixel_format = dev.get(device_keys::pixel_format);
   if (!c.device.pixel_format.empty() && c.device.pixel_format.size() != 4)
     dev.fail("pixel_format", "a four-character code such as MJPG or YUYV, or empty");
-  if (c.source != "device") c.path = n.file_path("path").string();
-  c.loop = n.get("loop", c.loop);
-  c.frame_rate_hz = n.get("frame_rate_hz", c.frame_rate_hz, {0.01, 1000.0});
+  if (c.source != "device") c.path = n.file_path(k::path.name).string();
+  c.loop = n.get(k::loop);
+  c.frame_rate_hz = n.get(k::frame_rate_hz);
   c.device.fps = c.frame_rate_hz;
-  c.output_width = n.get("output_width", c.output_width, {0, 8192});
-  c.output_height = n.get("output_height", c.output_height, {0, 8192});
+  c.output_width = n.get(k::output_width);
+  c.output_height = n.get(k::output_height);
   if ((c.output_width == 0) != (c.output_height == 0)) n.fail("output_height", "set together with output_width");
-  c.jpeg = n.choice("encoding", "bgr8", {"bgr8", "jpeg"}) == "jpeg";
-  c.jpeg_quality = n.get("jpeg_quality", c.jpeg_quality, {1, 100});
-  const std::vector<double> zoom = n.numbers("zoom_roi_px", {0, 0, 0, 0}, 4);
+  c.jpeg = n.get(k::encoding) == "jpeg";
+  c.jpeg_quality = n.get(k::jpeg_quality);
+  const std::vector<double> zoom = n.get(k::zoom_roi_px);
   c.zoom = cv::Rect(static_cast<int>(zoom[0]), static_cast<int>(zoom[1]), static_cast<int>(zoom[2]),
                     static_cast<int>(zoom[3]));
   if (c.zoom.width < 0 || c.zoom.height < 0 || c.zoom.x < 0 || c.zoom.y < 0)
     n.fail("zoom_roi_px", "x, y, width, height >= 0 (width 0 = no zoom)");
-  c.retry_initial_s = n.get("retry_initial_s", c.retry_initial_s, {0.01, 3600.0});
-  c.retry_max_s = n.get("retry_max_s", c.retry_max_s, {c.retry_initial_s, 3600.0});
-  c.stop_at_end = n.get("stop_at_end", c.stop_at_end);
+  c.retry_initial_s = n.get(k::retry_initial_s);
+  // Its range starts at retry_initial_s.
+  c.retry_max_s = n.get<double>(k::retry_max_s.name, k::retry_max_s.fallback, {c.retry_initial_s, k::retry_max_s.range.max});
+  c.stop_at_end = n.get(k::stop_at_end);
   return c;
+}
+
+std::vector<config::Section> CameraConfig::schema() {
+  namespace k = camera_keys;
+  const std::string where = "harvest-camera, config/vision/camera-*.yaml (docs/camera-driver.md).";
+  return {config::section("camera", where, k::camera, k::channel, k::source, k::path, k::loop, k::frame_rate_hz,
+                          k::output_width, k::output_height, k::encoding, k::jpeg_quality, k::zoom_roi_px,
+                          k::retry_initial_s, k::retry_max_s, k::stop_at_end),
+          config::section("camera.device", where, device_keys::path, device_keys::width, device_keys::height,
+                          device_keys::pixel_format)};
 }
 
 std::unique_ptr<FrameSource> make_source(const CameraConfig& c) {

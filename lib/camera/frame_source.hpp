@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "config/key.hpp"
+
 namespace harvest::camera {
 
 enum class ReadStatus {
@@ -33,9 +35,19 @@ class FrameSource {
   virtual std::string describe() const = 0;
 };
 
+// The camera driver's `device` keys.
+namespace device_keys {
+inline constexpr config::Key<std::string> path{"path", "/dev/video0", {}, "",
+                                               "the video device, or a number for the OpenCV index"};
+inline constexpr config::Key<int> width{"width", 640, {1, 8192}, "px", "requested frame width"};
+inline constexpr config::Key<int> height{"height", 480, {1, 8192}, "px", "requested frame height"};
+inline constexpr config::Key<std::string> pixel_format{"pixel_format", "", {}, "",
+                                                       "FOURCC such as MJPG or YUYV; empty: the driver's default"};
+}  // namespace device_keys
+
 struct DeviceOptions {
-  std::string device = "/dev/video0";  // path, or a number for the OpenCV index
-  int width = 640, height = 480;
+  std::string device{device_keys::path.fallback};  // path, or a number for the OpenCV index
+  int width = device_keys::width.fallback, height = device_keys::height.fallback;
   double fps = 30;
   std::string pixel_format;  // FOURCC such as "MJPG" or "YUYV"; empty = driver default
 };

@@ -7,12 +7,15 @@
 #include <optional>
 
 #include "can/bus_spec.hpp"
+#include "config/schema.hpp"
 #include "canopen/pdo.hpp"
 
 namespace harvest::canopen {
 
-std::string bus_from_config(const config::Node& node, const std::string& key, const std::string& fallback) {
-  const auto bus = node.get<std::string>(key, fallback);
+std::string bus_from_config(const config::Node& node, const config::Key<std::string>& key_decl,
+                            const std::optional<std::string>& derived_fallback) {
+  const std::string key = key_decl.name;
+  const auto bus = derived_fallback ? node.get(key_decl, *derived_fallback) : node.get(key_decl);
   try {
     can::parse_bus_spec(bus);
   } catch (const can::CanError& e) {
@@ -22,25 +25,24 @@ std::string bus_from_config(const config::Node& node, const std::string& key, co
 }
 
 MasterConfig MasterConfig::from_config(const config::Node& node) {
+  namespace k = master_keys;
   MasterConfig c;
-  c.sync_period = static_cast<Micros>(1e6 / node.get<double>("sync_rate_hz", 100.0, {1.0, 1000.0}));
-  c.heartbeat_ms = static_cast<uint16_t>(node.get<int>("heartbeat_ms", 50, {10, 1000}));
-  c.heartbeat_timeout = node.get<int>("heartbeat_timeout_ms", 200, {20, 5000}) * 1000;
-  c.pdo_timeout = node.get<int>("pdo_timeout_ms", 100, {10, 5000}) * 1000;
-  c.sdo_timeout = node.get<int>("sdo_timeout_ms", 200, {10, 5000}) * 1000;
-  c.boot_timeout = node.get<int>("boot_timeout_ms", 2000, {0, 60000}) * 1000;
+  c.sync_period = static_cast<Micros>(1e6 / node.get(k::sync_rate_hz));
+  c.heartbeat_ms = static_cast<uint16_t>(node.get(k::heartbeat_ms));
+  c.heartbeat_timeout = node.get(k::heartbeat_timeout_ms) * 1000;
+  c.pdo_timeout = node.get(k::pdo_timeout_ms) * 1000;
+  c.sdo_timeout = node.get(k::sdo_timeout_ms) * 1000;
+  c.boot_timeout = node.get(k::boot_timeout_ms) * 1000;
   if (c.heartbeat_timeout <= Micros{c.heartbeat_ms} * 1000)
     node.fail("heartbeat_timeout_ms", "a value greater than heartbeat_ms");
-  c.master_node = static_cast<uint8_t>(node.get<int>("master_node_id", c.master_node, {1, 127}));
-  c.master_heartbeat_ms = static_cast<uint16_t>(node.get<int>("master_heartbeat_ms", c.master_heartbeat_ms, {1, 1000}));
-  c.drive_heartbeat_timeout_ms =
-      static_cast<uint16_t>(node.get<int>("drive_heartbeat_timeout_ms", c.drive_heartbeat_timeout_ms, {2, 10000}));
-  c.drive_rpdo_timeout_ms =
-      static_cast<uint16_t>(node.get<int>("drive_rpdo_timeout_ms", c.drive_rpdo_timeout_ms, {1, 10000}));
+  c.master_node = static_cast<uint8_t>(node.get(k::master_node_id));
+  c.master_heartbeat_ms = static_cast<uint16_t>(node.get(k::master_heartbeat_ms));
+  c.drive_heartbeat_timeout_ms = static_cast<uint16_t>(node.get(k::drive_heartbeat_timeout_ms));
+  c.drive_rpdo_timeout_ms = static_cast<uint16_t>(node.get(k::drive_rpdo_timeout_ms));
   {
-    static const std::vector<std::string> kChoices{"pre_operational", "operational", "stopped", "leave"};
-    const std::string behaviour = node.choice("drive_communication_error", "operational", kChoices);
-    const auto at = std::find(kChoices.begin(), kChoices.end(), behaviour) - kChoices.begin();
+    const auto choices = k::drive_communication_error.list();
+    const std::string behaviour = node.get(k::drive_communication_error);
+    const auto at = std::find(choices.begin(), choices.end(), behaviour) - choices.begin();
     c.drive_communication_error = static_cast<int8_t>(at == 3 ? -1 : at);
   }
   if (c.drive_heartbeat_timeout_ms <= c.master_heartbeat_ms)
@@ -53,14 +55,14 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   // to another overwrites the content of the node it refers to (the `can`
   // mapping would become the drive file).
   std::optional<config::Document> drives_doc;
-  if (node.has("drives_file")) drives_doc = config::Document::load_file(node.file_path("drives_file"));
+  if (node.has(k::drives_file.name)) drives_doc = config::Document::load_file(node.get(k::drives_file));
   const config::Node drives_node = drives_doc ? drives_doc->root() : node;
   for (const auto& d : drives_node.children("drives")) {
     DriveConfig dc;
-    dc.node_id = static_cast<uint8_t>(d.required<int>("node_id", {1, 127}));
-    dc.counts_per_radian = d.required<double>("counts_per_radian", {-1e9, 1e9});
+    dc.node_id = static_cast<uint8_t>(d.get(drive_keys::node_id));
+    dc.counts_per_radian = d.get(drive_keys::counts_per_radian);
     if (std::abs(dc.counts_per_radian) < 1.0) d.fail("counts_per_radian", "a magnitude of at least 1 count per radian");
-    dc.zero_offset_counts = d.get<int>("zero_offset_counts", 0);
+    dc.zero_offset_counts = d.get(drive_keys::zero_offset_counts);
     for (const auto& other : c.drives)
       if (other.node_id == dc.node_id) d.fail("node_id", "a node id not used by another drive");
     if (dc.node_id == c.master_node) d.fail("node_id", "a node id other than the master's (can.master_node_id)");
@@ -69,6 +71,18 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   if (c.drives.empty()) drives_node.fail("drives", "a list of at least one drive");
   if (drives_doc) drives_doc->check_unused();
   return c;
+}
+
+std::vector<config::Section> MasterConfig::schema(const std::string& path, const std::string& where) {
+  namespace k = master_keys;
+  return {config::section(path, where, k::sync_rate_hz, k::heartbeat_ms, k::heartbeat_timeout_ms, k::pdo_timeout_ms,
+                          k::sdo_timeout_ms, k::boot_timeout_ms, k::master_node_id, k::master_heartbeat_ms,
+                          k::drive_heartbeat_timeout_ms, k::drive_rpdo_timeout_ms, k::drive_communication_error,
+                          k::drives_file),
+          config::section(path + ".drives[]",
+                          "One per joint, in joint order; here or in `drives_file` (top-level `drives`, shared with "
+                          "the simulated drives).",
+                          drive_keys::node_id, drive_keys::counts_per_radian, drive_keys::zero_offset_counts)};
 }
 
 Master::Master(can::CanBus& bus, MasterConfig config)

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,40 +19,93 @@
 #include "canopen/cia402.hpp"
 #include "canopen/sdo_client.hpp"
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::canopen {
 
-// The CAN bus string under `key` (default `fallback`), checked by
-// can::parse_bus_spec: a bad one is a configuration error, so --check-config
-// refuses it before anything is opened.
-std::string bus_from_config(const config::Node& node, const std::string& key, const std::string& fallback);
+// The CAN bus string under `key`, checked by can::parse_bus_spec: a bad one is
+// a configuration error, so --check-config refuses it before anything is opened.
+// A derived default (`key.derived` says which) replaces the declared one.
+std::string bus_from_config(const config::Node& node, const config::Key<std::string>& key,
+                            const std::optional<std::string>& derived_fallback = std::nullopt);
+// The `bus` key of the processes on the arm's CAN bus (docs/can.md).
+inline constexpr config::Key<std::string> kBusKey{
+    "bus", "udp_multicast:239.74.163.2:43113", {}, "", "the CAN bus: socketcan:IFACE or udp_multicast[:GROUP:PORT][?ttl=N] (docs/can.md)"};
+
+// The keys of one drive (robot_link.can.drives[i], or drives[i] of the drives file).
+namespace drive_keys {
+using config::Key;
+inline constexpr Key<int> node_id{.name = "node_id", .range = {1, 127}, .doc = "CANopen node id", .required = true};
+inline constexpr Key<double> counts_per_radian{.name = "counts_per_radian",
+                                               .range = {-1e9, 1e9},
+                                               .unit = "1/rad",
+                                               .doc = "encoder counts per joint radian (gear included; sign = "
+                                                      "direction; magnitude at least 1)",
+                                               .required = true};
+inline constexpr Key<int> zero_offset_counts{"zero_offset_counts", 0, {}, "counts", "counts at joint angle 0"};
+}  // namespace drive_keys
 
 struct DriveConfig {
   uint8_t node_id = 1;
-  double counts_per_radian = 1.0;        // encoder counts per joint radian (gear included; sign = direction)
-  int32_t zero_offset_counts = 0;        // counts at joint angle 0
+  double counts_per_radian = 1.0;                                  // sign = direction
+  int32_t zero_offset_counts = drive_keys::zero_offset_counts.fallback;
   double quick_stop_deceleration = 0.0;  // [rad/s^2] written to the drive (0x6085); 0 = the drive's own
 };
 
+// The keys of the `can` mapping of a robot-link configuration (docs/can.md).
+namespace master_keys {
+using config::Key;
+inline constexpr Key<double> sync_rate_hz{"sync_rate_hz", 100.0, {1.0, 1000.0}, "Hz", "SYNC and control rate"};
+inline constexpr Key<int> heartbeat_ms{"heartbeat_ms", 50, {10, 1000}, "ms",
+                                       "drives' heartbeat producer time (0x1017, written by SDO)"};
+inline constexpr Key<int> heartbeat_timeout_ms{"heartbeat_timeout_ms", 200, {20, 5000}, "ms",
+                                               "a drive's heartbeat is lost after this (more than heartbeat_ms)"};
+inline constexpr Key<int> pdo_timeout_ms{"pdo_timeout_ms", 100, {10, 5000}, "ms",
+                                         "a running drive's TPDOs are lost after this"};
+inline constexpr Key<int> sdo_timeout_ms{"sdo_timeout_ms", 200, {10, 5000}, "ms", "per SDO transfer"};
+inline constexpr Key<int> boot_timeout_ms{"boot_timeout_ms", 2000, {0, 60000}, "ms",
+                                          "a drive not answering at start is asked again this long"};
+inline constexpr Key<int> master_node_id{"master_node_id", 127, {1, 127}, "",
+                                         "the link's node id: its heartbeat is 0x700 + this"};
+inline constexpr Key<int> master_heartbeat_ms{"master_heartbeat_ms", 10, {1, 1000}, "ms",
+                                              "the link's heartbeat period, which every drive consumes"};
+inline constexpr Key<int> drive_heartbeat_timeout_ms{
+    "drive_heartbeat_timeout_ms", 50, {2, 10000}, "ms",
+    "written to each drive (0x1016:01): the link's heartbeat lost this long, the drive quick-stops"};
+inline constexpr Key<int> drive_rpdo_timeout_ms{
+    "drive_rpdo_timeout_ms", 25, {1, 10000}, "ms",
+    "written to each drive (0x1400:05): no RPDO1 this long, the drive quick-stops (more than a SYNC period)"};
+inline constexpr config::Choice drive_communication_error{
+    "drive_communication_error",
+    "operational",
+    {"pre_operational", "operational", "stopped", "leave"},
+    "NMT state a drive goes to on a communication error (0x1029:01; leave: not written)"};
+inline constexpr Key<config::Path> drives_file{
+    "drives_file", "", {}, "", "file with the drive list (`drives`); absent: the list is `drives` here"};
+}  // namespace master_keys
+
 struct MasterConfig {
   std::vector<DriveConfig> drives;
-  Micros sync_period = 10'000;         // 100 Hz
-  uint16_t heartbeat_ms = 50;          // producer time written to each drive
-  Micros heartbeat_timeout = 200'000;  // consumer: lost if silent this long
-  Micros pdo_timeout = 100'000;        // running drive sent no TPDO this long
-  Micros sdo_timeout = 200'000;
-  Micros boot_timeout = 2'000'000;  // a drive not answering at start is asked again for this long
+  Micros sync_period = static_cast<Micros>(1e6 / master_keys::sync_rate_hz.fallback);
+  uint16_t heartbeat_ms = master_keys::heartbeat_ms.fallback;  // producer time written to each drive
+  Micros heartbeat_timeout = master_keys::heartbeat_timeout_ms.fallback * 1000;  // consumer: lost if silent this long
+  Micros pdo_timeout = master_keys::pdo_timeout_ms.fallback * 1000;  // running drive sent no TPDO this long
+  Micros sdo_timeout = master_keys::sdo_timeout_ms.fallback * 1000;
+  Micros boot_timeout = master_keys::boot_timeout_ms.fallback * 1000;
   // The master's own heartbeat (0x700 + master_node), which every drive
   // consumes, and the drives' own protection (docs/can.md).
-  uint8_t master_node = 127;
-  uint16_t master_heartbeat_ms = 10;
-  uint16_t drive_heartbeat_timeout_ms = 50;  // drive: master's heartbeat lost -> quick stop (0x1016)
-  uint16_t drive_rpdo_timeout_ms = 25;       // drive: no RPDO1 this long -> quick stop (0x1400:05)
+  uint8_t master_node = master_keys::master_node_id.fallback;
+  uint16_t master_heartbeat_ms = master_keys::master_heartbeat_ms.fallback;
+  uint16_t drive_heartbeat_timeout_ms = master_keys::drive_heartbeat_timeout_ms.fallback;  // 0x1016
+  uint16_t drive_rpdo_timeout_ms = master_keys::drive_rpdo_timeout_ms.fallback;            // 0x1400:05
   int8_t drive_communication_error = 1;  // drive: NMT state on a communication error (0x1029:01), see DriveProtection
 
   // Reads the `can` mapping of a robot-link configuration; the drive list is
   // `drives` there or in the file `drives_file`. Throws config::Error.
   static MasterConfig from_config(const config::Node& node);
+  // Its keys, for the reference (docs/configuration.md): the mapping at `path`
+  // and its drive list.
+  static std::vector<config::Section> schema(const std::string& path, const std::string& where);
 };
 
 enum class MasterPhase { kIdle, kConfiguring, kRunning, kFailed };

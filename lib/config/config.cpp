@@ -24,6 +24,25 @@ std::string describe(const YAML::Node& n) {
 }
 }  // namespace detail
 
+std::vector<std::string> Choice::list() const {
+  std::vector<std::string> out;
+  for (auto c : choices)
+    if (!c.empty()) out.emplace_back(c);
+  return out;
+}
+
+std::vector<double> Numbers::defaults() const { return {fallback.begin(), fallback.begin() + size}; }
+
+std::string Node::get(const Choice& key) const { return choice(key.name, std::string(key.fallback), key.list()); }
+
+std::vector<double> Node::get(const Numbers& key) const {
+  return key.required ? numbers(key.name, key.size) : numbers(key.name, key.defaults(), key.size);
+}
+
+std::vector<double> Node::get(const Numbers& key, const std::vector<double>& derived_fallback) const {
+  return numbers(key.name, derived_fallback, key.size);
+}
+
 Node::Node(YAML::Node node, std::string path, std::shared_ptr<detail::Shared> shared)
     : node_(std::move(node)), path_(std::move(path)), shared_(std::move(shared)) {}
 

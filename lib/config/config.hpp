@@ -11,12 +11,16 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "config/key.hpp"
+
 #include <filesystem>
 #include <limits>
+#include <array>
 #include <memory>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace harvest::config {
@@ -34,12 +38,6 @@ struct Shared {
 std::string describe(const YAML::Node& n);
 }  // namespace detail
 
-template <class T>
-struct Range {
-  T min = std::numeric_limits<T>::lowest();
-  T max = std::numeric_limits<T>::max();
-};
-
 class Node {
  public:
   Node(YAML::Node node, std::string path, std::shared_ptr<detail::Shared> shared);
@@ -55,6 +53,23 @@ class Node {
   // Optional value with a default (recorded into the effective configuration).
   template <class T>
   T get(const std::string& key, const T& fallback, Range<T> range = {}) const;
+
+  // Declared keys (the usual way): name, default and range from the declaration.
+  template <class T>
+  typename KeyTraits<T>::Value get(const Key<T>& key) const;
+  // A key whose default is derived from other values (key.derived says how).
+  template <class T>
+  T get(const Key<T>& key, const T& derived_fallback) const {
+    static_assert(!std::is_same_v<T, Path>);
+    if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) return get<T>(key.name, derived_fallback);
+    else return get<T>(key.name, derived_fallback, key.range);
+  }
+  std::string get(const Choice& key) const;
+  std::vector<double> get(const Numbers& key) const;
+  // A list whose default is derived from other values (key.derived says how).
+  std::vector<double> get(const Numbers& key, const std::vector<double>& derived_fallback) const;
+  // A required list whose length is known only at run time (one per joint).
+  std::vector<double> get(const Numbers& key, std::size_t size) const { return numbers(key.name, size); }
 
   // A string that must be one of `choices`.
   std::string choice(const std::string& key, const std::string& fallback,
@@ -162,6 +177,17 @@ T Node::get(const std::string& key, const T& fallback, Range<T> range) const {
     return fallback;
   }
   return required<T>(key, range);
+}
+
+template <class T>
+typename KeyTraits<T>::Value Node::get(const Key<T>& key) const {
+  if constexpr (std::is_same_v<T, Path>) {
+    return key.required ? file_path(key.name) : file_path(key.name, std::string(key.fallback));
+  } else if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) {
+    return key.required ? required<T>(key.name) : get<T>(key.name, T(key.fallback));
+  } else {
+    return key.required ? required<T>(key.name, key.range) : get<T>(key.name, key.fallback, key.range);
+  }
 }
 
 }  // namespace harvest::config

@@ -71,32 +71,40 @@ TbzParams TbzParams::from_config(const config::Node& node) {
 }
 
 TbzParams TbzParams::from_config(const config::Node& node, const TbzParams& d) {
+  namespace k = tbz_keys;
   TbzParams p;
-  const auto a = node.numbers("A_hat", row_major_values(d.A_hat), 9);
+  const auto a = node.get(k::A_hat, row_major_values(d.A_hat));
   p.A_hat = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data());
   if (std::abs(p.A_hat.determinant()) < 1e-9) node.fail("A_hat", "an invertible 3x3 matrix (row major)");
-  const auto r = node.numbers("R_r_hat", row_major_values(d.R_r_hat), 9);
+  const auto r = node.get(k::R_r_hat, row_major_values(d.R_r_hat));
   const Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r.data());
   if ((R * R.transpose() - Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0)
     node.fail("R_r_hat", "a rotation matrix (row major, orthonormal to 1e-3)");
   p.R_r_hat = geo::nearest_rotation(R);
-  p.lambda_w = node.get<double>("lambda_w", d.lambda_w, {1e-6, 1e3});
-  p.gain_function = node.choice("lambda_v_mode", d.gain_function ? "gain_function" : "constant",
-                                {"constant", "gain_function"}) == "gain_function";
-  p.lambda_v = node.get<double>("lambda_v", d.lambda_v, {1e-6, 1e4});
-  p.kn0 = node.get<double>("kn0", d.kn0, {1e-6, 1e4});
-  p.kn1 = node.get<double>("kn1", d.kn1, {0.0, 1e4});
-  p.kn2 = node.get<double>("kn2", d.kn2, {0.0, 1e4});
-  p.desired_depth_estimate = node.get<double>("desired_depth_estimate_m", d.desired_depth_estimate, {1e-3, 100.0});
-  p.translation_point = node.get<int>("translation_point", d.translation_point, {0, 1000});
-  p.max_linear_speed = node.get<double>("max_linear_speed", d.max_linear_speed, {0.0, 100.0});
-  p.max_angular_speed = node.get<double>("max_angular_speed", d.max_angular_speed, {0.0, 100.0});
-  const auto n =
-      node.numbers("reference_normal", {d.reference_normal.x(), d.reference_normal.y(), d.reference_normal.z()}, 3);
+  p.lambda_w = node.get(k::lambda_w, d.lambda_w);
+  p.gain_function = node.choice(k::lambda_v_mode.name, d.gain_function ? "gain_function" : "constant",
+                                k::lambda_v_mode.list()) == "gain_function";
+  p.lambda_v = node.get(k::lambda_v, d.lambda_v);
+  p.kn0 = node.get(k::kn0, d.kn0);
+  p.kn1 = node.get(k::kn1, d.kn1);
+  p.kn2 = node.get(k::kn2, d.kn2);
+  p.desired_depth_estimate = node.get(k::desired_depth_estimate_m, d.desired_depth_estimate);
+  p.translation_point = node.get(k::translation_point, d.translation_point);
+  p.max_linear_speed = node.get(k::max_linear_speed, d.max_linear_speed);
+  p.max_angular_speed = node.get(k::max_angular_speed, d.max_angular_speed);
+  const auto n = node.get(k::reference_normal,
+                          {d.reference_normal.x(), d.reference_normal.y(), d.reference_normal.z()});
   p.reference_normal = Vector3d(n[0], n[1], n[2]);
   if (p.reference_normal.norm() < 1e-9) node.fail("reference_normal", "a non-zero 3-vector");
   p.reference_normal.normalize();
   return p;
+}
+
+config::Section TbzParams::schema(const std::string& path, const std::string& where) {
+  namespace k = tbz_keys;
+  return config::section(path, where, k::A_hat, k::R_r_hat, k::lambda_w, k::lambda_v_mode, k::lambda_v, k::kn0, k::kn1,
+                         k::kn2, k::desired_depth_estimate_m, k::translation_point, k::max_linear_speed,
+                         k::max_angular_speed, k::reference_normal);
 }
 
 TbzController::TbzController(TbzParams params) : params_(std::move(params)), A_hat_inv_(params_.A_hat.inverse()) {}

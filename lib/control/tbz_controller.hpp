@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 
+#include "config/schema.hpp"
 #include "geometry/homography.hpp"
 
 namespace harvest::config {
@@ -46,19 +47,51 @@ Twist camera_to_robot(const Twist& camera, const Eigen::Matrix3d& R_r, const Eig
 // off-axis, so the gain grows where the image Jacobian weakens.
 double translation_gain_f(double me1, double me2);
 
+// The keys of the `controller` mapping of config/tbz/*.yaml
+// (docs/teach-by-zooming.md). A missing key keeps the caller's preset; the
+// defaults here are TbzParams{}'s.
+namespace tbz_keys {
+using config::Key;
+inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {1e-6, 1e3}, "1/s", "rotation gain (eq. 5-44)"};
+inline constexpr config::Choice lambda_v_mode{
+    "lambda_v_mode", "constant", {"constant", "gain_function"},
+    "constant lambda_v (the thesis simulation) or the gain function of eq. 5-63"};
+inline constexpr Key<double> lambda_v{"lambda_v", 40.0, {1e-6, 1e4}, "", "constant translation gain"};
+inline constexpr Key<double> kn0{"kn0", 1.0, {1e-6, 1e4}, "", "gain function coefficient (eq. 5-62, 5-63)"};
+inline constexpr Key<double> kn1{"kn1", 0.0, {0.0, 1e4}, "", "gain function coefficient"};
+inline constexpr Key<double> kn2{"kn2", 0.0, {0.0, 1e4}, "", "gain function coefficient"};
+inline constexpr Key<double> desired_depth_estimate_m{"desired_depth_estimate_m", 1.0, {1e-3, 100.0}, "m",
+                                                      "Z*_1 hat: best guess of point 1's depth at F_d"};
+inline constexpr Key<int> translation_point{"translation_point", 0, {0, 1000}, "",
+                                            "which target point drives e_v (the thesis's O_1)"};
+inline constexpr Key<double> max_linear_speed{"max_linear_speed", 0.381, {0.0, 100.0}, "m/s",
+                                              "output limit, 0: none (the thesis simulation has none)"};
+inline constexpr Key<double> max_angular_speed{"max_angular_speed", 1.0, {0.0, 100.0}, "rad/s",
+                                               "output limit, 0: none"};
+inline constexpr config::Numbers A_hat{.name = "A_hat", .size = 9,
+                                       .doc = "best-guess in-hand intrinsics, row major (eq. 5-13, 5-15), invertible",
+                                       .derived = "the thesis's"};
+inline constexpr config::Numbers R_r_hat{.name = "R_r_hat", .size = 9,
+                                         .doc = "best-guess camera <- end-effector rotation, row major",
+                                         .derived = "identity (thesis simulation: the thesis's)"};
+inline constexpr config::Numbers reference_normal{"reference_normal", 3, {0, 0, 1}, "",
+                                                  "target plane normal in F_d picking the first decomposition"};
+}  // namespace tbz_keys
+
 struct TbzParams {
   Eigen::Matrix3d A_hat = Eigen::Matrix3d::Identity();    // best-guess in-hand intrinsics (eq. 5-13, 5-15)
   Eigen::Matrix3d R_r_hat = Eigen::Matrix3d::Identity();  // best-guess camera <- end-effector rotation
-  double lambda_w = 2.0;                                  // rotation gain (eq. 5-44)
-  bool gain_function = false;              // false: constant lambda_v (thesis simulation); true: eq. 5-63
-  double lambda_v = 40.0;                  // constant translation gain
-  double kn0 = 1.0, kn1 = 0.0, kn2 = 0.0;  // eq. 5-62, 5-63
-  double desired_depth_estimate = 1.0;     // Z*_1 hat [m], best guess of point 1's depth at F_d
-  int translation_point = 0;               // which target point drives e_v (the thesis's O_1)
+  double lambda_w = tbz_keys::lambda_w.fallback;          // rotation gain (eq. 5-44)
+  // false: constant lambda_v (thesis simulation); true: eq. 5-63
+  bool gain_function = tbz_keys::lambda_v_mode.fallback == "gain_function";
+  double lambda_v = tbz_keys::lambda_v.fallback;  // constant translation gain
+  double kn0 = tbz_keys::kn0.fallback, kn1 = tbz_keys::kn1.fallback, kn2 = tbz_keys::kn2.fallback;
+  double desired_depth_estimate = tbz_keys::desired_depth_estimate_m.fallback;  // Z*_1 hat [m]
+  int translation_point = tbz_keys::translation_point.fallback;  // which target point drives e_v
   // Output limits (0 = none). Saturation scales the whole linear (angular)
   // vector, so the direction of the law, and hence stability, is kept.
-  double max_linear_speed = 0.381;  // [m/s], thesis 15 in/s
-  double max_angular_speed = 1.0;   // [rad/s]
+  double max_linear_speed = tbz_keys::max_linear_speed.fallback;
+  double max_angular_speed = tbz_keys::max_angular_speed.fallback;
   // Normal of the target plane in F_d used to pick the decomposition on the
   // first frame; later frames use the previous frame's normal.
   Eigen::Vector3d reference_normal = Eigen::Vector3d::UnitZ();
@@ -69,6 +102,7 @@ struct TbzParams {
   // keeps its value in `defaults`.
   static TbzParams from_config(const config::Node& node, const TbzParams& defaults);
   static TbzParams from_config(const config::Node& node);  // defaults: A_hat as the thesis's, others above
+  static config::Section schema(const std::string& path, const std::string& where);
 };
 
 struct TbzMeasurement {

@@ -126,33 +126,78 @@ ThesisScenario ThesisScenario::thesis() {
   return s;
 }
 
+namespace {
+// The keys of the `scenario` mapping of config/tbz/thesis_sim.yaml; a missing
+// key takes the thesis's value (section 5.6.2, ThesisScenario::thesis()).
+namespace sk {
+using config::Key;
+using config::Numbers;
+constexpr const char* kThesis = "the thesis's";
+constexpr Numbers camera_in_hand{.name = "camera_in_hand", .size = 5,
+                                 .doc = "true in-hand intrinsics [lambda1, lambda2, phi, u0, v0] (eq. 5-9)",
+                                 .derived = kThesis};
+constexpr Numbers fixed_camera{.name = "fixed_camera", .size = 5, .doc = "fixed camera intrinsics, the same form",
+                               .derived = kThesis};
+constexpr Numbers zoomed_camera{.name = "zoomed_camera", .size = 5,
+                                .doc = "fixed camera after zooming, the same form", .derived = kThesis};
+constexpr Numbers R_r{.name = "R_r", .size = 9, .doc = "true camera <- end-effector rotation, row major (eq. 5-65)",
+                      .derived = kThesis};
+constexpr Numbers t_r_m{"t_r_m", 3, {0.02, 0.04, 0.03}, "m",
+                        "true end-effector origin in the camera frame (eq. 5-66)"};
+constexpr Numbers p_f{.name = "p_f", .size = 8, .unit = "px", .doc = "fixed-camera pixels of the 4 points",
+                      .derived = kThesis};
+constexpr Numbers p_star{.name = "p_star", .size = 8, .unit = "px", .doc = "zoomed fixed-camera pixels",
+                         .derived = kThesis};
+constexpr Numbers p_initial{.name = "p_initial", .size = 8, .unit = "px", .doc = "initial in-hand pixels",
+                            .derived = kThesis};
+constexpr Numbers vanishing_star{.name = "vanishing_star", .size = 8, .unit = "px",
+                                 .doc = "vanishing points, zoomed fixed camera", .derived = kThesis};
+constexpr Numbers vanishing_initial{.name = "vanishing_initial", .size = 8, .unit = "px",
+                                    .doc = "vanishing points, initial in-hand", .derived = kThesis};
+constexpr Key<double> desired_depth_m{"desired_depth_m", 1.0, {1e-3, 100.0}, "m",
+                                      "Z of point 1 at F_d (not given by the thesis)"};
+constexpr Key<double> vanishing_weight{"vanishing_weight", 0.01, {1e-6, 1e6}, "",
+                                       "vanishing-point residuals' weight in the scene fit (a weak prior)"};
+constexpr Key<double> max_plane_tilt_deg{"max_plane_tilt_deg", 60.0, {0.0, 89.0}, "deg",
+                                         "bound on the target plane's tilt at F_d"};
+}  // namespace sk
+}  // namespace
+
+std::vector<config::Section> ThesisScenario::schema() {
+  const std::string where = "harvest-tbz-sim, config/tbz/thesis_sim.yaml (docs/teach-by-zooming.md).";
+  return {config::section("tbz_sim.scenario", where, sk::camera_in_hand, sk::fixed_camera, sk::zoomed_camera, sk::R_r,
+                          sk::t_r_m, sk::p_f, sk::p_star, sk::p_initial, sk::vanishing_star, sk::vanishing_initial,
+                          sk::desired_depth_m, sk::vanishing_weight, sk::max_plane_tilt_deg),
+          TbzParams::schema("tbz_sim.controller", where + " Defaults: the thesis simulation's for harvest-tbz-sim.")};
+}
+
 ThesisScenario ThesisScenario::from_config(const config::Node& node) {
   ThesisScenario s = thesis();
-  auto cam = [&](const std::string& key, const Matrix3d& fallback) {
-    const auto v = node.numbers(key, {fallback(0, 0), fallback(1, 1) * std::sin(1.53), 1.53, fallback(0, 2),
-                                      fallback(1, 2)}, 5);
+  auto cam = [&](const config::Numbers& key, const Matrix3d& fallback) {
+    const auto v =
+        node.get(key, {fallback(0, 0), fallback(1, 1) * std::sin(1.53), 1.53, fallback(0, 2), fallback(1, 2)});
     if (v[0] <= 0 || v[1] <= 0 || v[2] <= 0.1 || v[2] >= M_PI - 0.1)
-      node.fail(key, "[lambda1, lambda2, phi, u0, v0] with positive focal products and 0.1 < phi < pi - 0.1");
+      node.fail(key.name, "[lambda1, lambda2, phi, u0, v0] with positive focal products and 0.1 < phi < pi - 0.1");
     return geo::intrinsics(v[0], v[1], v[2], v[3], v[4]);
   };
-  s.A = cam("camera_in_hand", s.A);
-  s.A_f = cam("fixed_camera", s.A_f);
-  s.A_star = cam("zoomed_camera", s.A_star);
-  const Matrix3d R = row_major(node.numbers("R_r", {0.95692, -0.065563, 0.28284, 0.11725, 0.97846, -0.16989,
-                                                    -0.26561, 0.19574, 0.944}, 9));
+  s.A = cam(sk::camera_in_hand, s.A);
+  s.A_f = cam(sk::fixed_camera, s.A_f);
+  s.A_star = cam(sk::zoomed_camera, s.A_star);
+  const Matrix3d R = row_major(node.get(sk::R_r, {0.95692, -0.065563, 0.28284, 0.11725, 0.97846, -0.16989,
+                                                  -0.26561, 0.19574, 0.944}));
   if ((R * R.transpose() - Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0)
     node.fail("R_r", "a rotation matrix (row major, orthonormal to 1e-3)");
   s.R_r = geo::nearest_rotation(R);
-  const auto t = node.numbers("t_r_m", {0.02, 0.04, 0.03}, 3);
+  const auto t = node.get(sk::t_r_m);
   s.t_r = Vector3d(t[0], t[1], t[2]);
-  s.p_f = pairs(node.numbers("p_f", flat(s.p_f), 8));
-  s.p_star = pairs(node.numbers("p_star", flat(s.p_star), 8));
-  s.p0 = pairs(node.numbers("p_initial", flat(s.p0), 8));
-  s.vanish_star = pairs(node.numbers("vanishing_star", flat(s.vanish_star), 8));
-  s.vanish0 = pairs(node.numbers("vanishing_initial", flat(s.vanish0), 8));
-  s.desired_depth = node.get<double>("desired_depth_m", 1.0, {1e-3, 100.0});
-  s.vanishing_weight = node.get<double>("vanishing_weight", s.vanishing_weight, {1e-6, 1e6});
-  s.max_plane_tilt = node.get<double>("max_plane_tilt_deg", 60.0, {0.0, 89.0}) * M_PI / 180.0;
+  s.p_f = pairs(node.get(sk::p_f, flat(s.p_f)));
+  s.p_star = pairs(node.get(sk::p_star, flat(s.p_star)));
+  s.p0 = pairs(node.get(sk::p_initial, flat(s.p0)));
+  s.vanish_star = pairs(node.get(sk::vanishing_star, flat(s.vanish_star)));
+  s.vanish0 = pairs(node.get(sk::vanishing_initial, flat(s.vanish0)));
+  s.desired_depth = node.get(sk::desired_depth_m);
+  s.vanishing_weight = node.get(sk::vanishing_weight);
+  s.max_plane_tilt = node.get(sk::max_plane_tilt_deg) * M_PI / 180.0;
   return s;
 }
 

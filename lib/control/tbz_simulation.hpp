@@ -36,6 +36,8 @@ struct ThesisScenario {
   static ThesisScenario thesis();  // every number of section 5.6.2
   // The `scenario` block of config/tbz/thesis_sim.yaml; missing keys = thesis values.
   static ThesisScenario from_config(const config::Node& node);
+  // Its keys and the controller's, as harvest-tbz-sim reads them.
+  static std::vector<config::Section> schema();
 };
 
 struct SceneFit {

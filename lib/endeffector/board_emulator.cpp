@@ -58,12 +58,13 @@ GripperReading LinearGripper::read(Micros now) {
 
 EmulatorConfig EmulatorConfig::from_config(const config::Node& node) {
   EmulatorConfig c;
-  c.ir_rate_hz = node.get<double>("ir_rate_hz", c.ir_rate_hz, {1.0, 2000.0});
-  c.grip_rate_hz = node.get<double>("grip_rate_hz", c.grip_rate_hz, {1.0, 1000.0});
-  c.ir_raw = node.get<int32_t>("ir_raw", c.ir_raw, {0, 65535});
-  c.full_travel_s = node.get<double>("full_travel_s", c.full_travel_s, {0.01, 60.0});
-  c.default_force_n = node.get<double>("default_force_n", c.default_force_n, {0.0, 1000.0});
-  c.firmware = sanitize_text(node.get<std::string>("firmware", c.firmware));
+  namespace k = board_keys;
+  c.ir_rate_hz = node.get(k::ir_rate_hz);
+  c.grip_rate_hz = node.get(k::grip_rate_hz);
+  c.ir_raw = node.get(k::ir_raw);
+  c.full_travel_s = node.get(k::full_travel_s);
+  c.default_force_n = node.get(k::default_force_n);
+  c.firmware = sanitize_text(node.get(k::firmware));
   return c;
 }
 

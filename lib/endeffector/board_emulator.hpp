@@ -63,13 +63,28 @@ class LinearGripper final : public GripperModel {
   bool started_ = false;
 };
 
+// The board's keys (the emulator's, and the simulator's `board` mapping).
+namespace board_keys {
+using config::Key;
+inline constexpr Key<double> ir_rate_hz{"ir_rate_hz", 100.0, {1.0, 2000.0}, "Hz", "IR range readings sent"};
+inline constexpr Key<double> grip_rate_hz{"grip_rate_hz", 20.0, {1.0, 1000.0}, "Hz", "gripper states sent"};
+inline constexpr Key<int32_t> ir_raw{"ir_raw", 3000, {0, 65535}, "",
+                                     "IR reading when no source is plugged in"};
+inline constexpr Key<double> full_travel_s{"full_travel_s", 1.0, {0.01, 60.0}, "s",
+                                           "the gripper's time from fully open to closed"};
+inline constexpr Key<double> default_force_n{"default_force_n", 10.0, {0.0, 1000.0}, "N",
+                                             "force limit when a command says 0"};
+inline constexpr Key<std::string> firmware{"firmware", "harvest-emulator-1", {}, "",
+                                           "firmware version the board reports"};
+}  // namespace board_keys
+
 struct EmulatorConfig {
-  double ir_rate_hz = 100.0;
-  double grip_rate_hz = 20.0;
-  int32_t ir_raw = 3000;          // default IR reading when no source is plugged in
-  double full_travel_s = 1.0;     // default gripper: time from fully open to closed
-  double default_force_n = 10.0;  // force limit when a command says 0
-  std::string firmware = "harvest-emulator-1";
+  double ir_rate_hz = board_keys::ir_rate_hz.fallback;
+  double grip_rate_hz = board_keys::grip_rate_hz.fallback;
+  int32_t ir_raw = board_keys::ir_raw.fallback;                  // when no source is plugged in
+  double full_travel_s = board_keys::full_travel_s.fallback;      // default gripper: open to closed
+  double default_force_n = board_keys::default_force_n.fallback;  // force limit when a command says 0
+  std::string firmware{board_keys::firmware.fallback};
 
   static EmulatorConfig from_config(const config::Node& node);
 };

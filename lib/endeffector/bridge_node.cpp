@@ -12,28 +12,27 @@ constexpr rt::Micros kSupervisePeriod = 10 * rt::kMilli;  // connect polling and
 constexpr std::size_t kMaxReadPerWakeup = 16 * 1024;      // bounded, so a flooding board cannot starve LCM
 constexpr std::size_t kMaxPendingOut = 4 * 1024;          // a board that takes no commands is a dead link
 
-rt::Micros seconds(const config::Node& n, const std::string& key, double fallback, double lo, double hi) {
-  return rt::from_seconds(n.get<double>(key, fallback, {lo, hi}));
-}
+rt::Micros seconds(const config::Node& n, const config::Key<double>& key) { return rt::from_seconds(n.get(key)); }
 }  // namespace
 
 BridgeConfig BridgeConfig::from_config(const config::Node& root) {
+  namespace k = bridge_keys;
   BridgeConfig c;
   const config::Node link = root.child("link");
   make_stream_from_config(link);  // validate the link settings now, at start-up
   c.make_link = [link] { return make_stream_from_config(link); };
-  c.connect_timeout = seconds(root, "connect_timeout_s", 1.0, 0.01, 60.0);
-  c.silence_timeout = seconds(root, "silence_timeout_s", 0.2, 0.02, 10.0);
-  c.reconnect_after_silence = seconds(root, "reconnect_after_silence_s", 1.0, 0.05, 60.0);
+  c.connect_timeout = seconds(root, k::connect_timeout_s);
+  c.silence_timeout = seconds(root, k::silence_timeout_s);
+  c.reconnect_after_silence = seconds(root, k::reconnect_after_silence_s);
   if (c.reconnect_after_silence < c.silence_timeout)
     root.fail("reconnect_after_silence_s", "a value >= silence_timeout_s");
-  c.backoff_initial = seconds(root, "backoff_initial_s", 0.1, 0.01, 10.0);
-  c.backoff_max = seconds(root, "backoff_max_s", 2.0, 0.01, 300.0);
-  c.no_data_period = seconds(root, "no_data_period_s", 0.1, 0.01, 1.0);
-  c.max_force_n = root.get<double>("max_force_n", 40.0, {0.0, 1000.0});
-  const std::string calib = root.get<std::string>("ir_calibration_file", "");
+  c.backoff_initial = seconds(root, k::backoff_initial_s);
+  c.backoff_max = seconds(root, k::backoff_max_s);
+  c.no_data_period = seconds(root, k::no_data_period_s);
+  c.max_force_n = root.get(k::max_force_n);
+  const std::string calib = root.get<std::string>(k::ir_calibration_file.name, std::string(k::ir_calibration_file.fallback));
   if (!calib.empty()) {
-    const auto path = root.file_path("ir_calibration_file");
+    const auto path = root.get(k::ir_calibration_file);
     try {
       auto doc = config::Document::load_file(path);
       c.ir_curve = IrCurve::from_config(doc.root());
@@ -43,12 +42,28 @@ BridgeConfig BridgeConfig::from_config(const config::Node& root) {
     }
   }
   const config::Node ch = root.child("channels");
-  c.ir_channel = ch.get<std::string>("ir_range", channels::kIrRange);
-  c.state_channel = ch.get<std::string>("gripper_state", channels::kGripperState);
-  c.command_channel = ch.get<std::string>("gripper_command", channels::kGripperCommand);
-  c.estop_channel = ch.get<std::string>("emergency_stop", channels::kEmergencyStop);
+  c.ir_channel = ch.get(k::ir_range);
+  c.state_channel = ch.get(k::gripper_state);
+  c.command_channel = ch.get(k::gripper_command);
+  c.estop_channel = ch.get(k::emergency_stop);
   c.authority = security::AuthorityConfig::from_config(root.child("authority"), security::AuthorityConfig::kController);
   return c;
+}
+
+std::vector<config::Section> BridgeConfig::schema() {
+  namespace k = bridge_keys;
+  const std::string where = "harvest-ee-bridge, config/endeffector/ee-bridge*.yaml (docs/ee-bridge.md).";
+  return {config::section("ee_bridge", where, k::connect_timeout_s, k::silence_timeout_s, k::reconnect_after_silence_s,
+                          k::backoff_initial_s, k::backoff_max_s, k::no_data_period_s, k::max_force_n,
+                          k::ir_calibration_file),
+          config::section("ee_bridge.channels", where, k::ir_range, k::gripper_state, k::gripper_command,
+                          k::emergency_stop),
+          config::section("ee_bridge.link", where, transport_keys::transport),
+          config::section("ee_bridge.link.tcp", where, transport_keys::host, transport_keys::tcp_port),
+          config::section("ee_bridge.link.serial", where, transport_keys::serial_port, transport_keys::baud,
+                          transport_keys::data_bits, transport_keys::parity, transport_keys::stop_bits,
+                          transport_keys::flow_control),
+          security::AuthorityConfig::schema("ee_bridge.authority", where, security::AuthorityConfig::kController)};
 }
 
 BridgeNode::BridgeNode(BridgeConfig config)

@@ -8,24 +8,54 @@
 #include <memory>
 #include <string>
 
+#include "config/schema.hpp"
 #include "endeffector/bridge_logic.hpp"
 #include "endeffector/ir_calibration.hpp"
 #include "endeffector/parser.hpp"
 #include "endeffector/transport.hpp"
+#include "runtime/channels.hpp"
 #include "runtime/node.hpp"
 #include "security/authority.hpp"
 
 namespace harvest::endeffector {
 
+// The keys of config/endeffector/ee-bridge*.yaml (docs/ee-bridge.md); `link`
+// is transport_keys, `authority` security::authority_keys.
+namespace bridge_keys {
+using config::Key;
+inline constexpr Key<double> connect_timeout_s{"connect_timeout_s", 1.0, {0.01, 60.0}, "s",
+                                               "a connection attempt gives up after this"};
+inline constexpr Key<double> silence_timeout_s{"silence_timeout_s", 0.2, {0.02, 10.0}, "s",
+                                               "no valid frame for this long: NO_DATA"};
+inline constexpr Key<double> reconnect_after_silence_s{
+    "reconnect_after_silence_s", 1.0, {0.05, 60.0}, "s",
+    "... and for this long: drop the link and reconnect (at least silence_timeout_s)"};
+inline constexpr Key<double> backoff_initial_s{"backoff_initial_s", 0.1, {0.01, 10.0}, "s",
+                                               "first wait before reconnecting, doubled each failure ..."};
+inline constexpr Key<double> backoff_max_s{"backoff_max_s", 2.0, {0.01, 300.0}, "s", "... up to this"};
+inline constexpr Key<double> no_data_period_s{"no_data_period_s", 0.1, {0.01, 1.0}, "s",
+                                              "NO_DATA / DISCONNECTED states repeated at this period"};
+inline constexpr Key<double> max_force_n{"max_force_n", 40.0, {0.0, 1000.0}, "N",
+                                         "grip force commands are capped at this"};
+inline constexpr Key<config::Path> ir_calibration_file{
+    "ir_calibration_file", "", {}, "", "IR range calibration (harvest-ir-calibrate); empty: the built-in curve"};
+inline constexpr Key<std::string> ir_range{"ir_range", channels::kIrRange, {}, "", "channel of IR_RANGE"};
+inline constexpr Key<std::string> gripper_state{"gripper_state", channels::kGripperState, {}, "", "channel of GRIPPER_STATE"};
+inline constexpr Key<std::string> gripper_command{"gripper_command", channels::kGripperCommand, {}, "",
+                                                  "channel of GRIPPER_COMMAND"};
+inline constexpr Key<std::string> emergency_stop{"emergency_stop", channels::kEmergencyStop, {}, "",
+                                                 "channel of EMERGENCY_STOP"};
+}  // namespace bridge_keys
+
 struct BridgeConfig {
   std::function<std::unique_ptr<ByteStream>()> make_link;
-  rt::Micros connect_timeout = 1 * rt::kSecond;
-  rt::Micros silence_timeout = 200 * rt::kMilli;         // no valid frame for this long: NO_DATA
-  rt::Micros reconnect_after_silence = 1 * rt::kSecond;  // ... and for this long: drop the link, reconnect
-  rt::Micros backoff_initial = 100 * rt::kMilli;
-  rt::Micros backoff_max = 2 * rt::kSecond;
-  rt::Micros no_data_period = 100 * rt::kMilli;  // NO_DATA / DISCONNECTED repeated at this period
-  double max_force_n = 40.0;
+  rt::Micros connect_timeout = rt::from_seconds(bridge_keys::connect_timeout_s.fallback);
+  rt::Micros silence_timeout = rt::from_seconds(bridge_keys::silence_timeout_s.fallback);
+  rt::Micros reconnect_after_silence = rt::from_seconds(bridge_keys::reconnect_after_silence_s.fallback);
+  rt::Micros backoff_initial = rt::from_seconds(bridge_keys::backoff_initial_s.fallback);
+  rt::Micros backoff_max = rt::from_seconds(bridge_keys::backoff_max_s.fallback);
+  rt::Micros no_data_period = rt::from_seconds(bridge_keys::no_data_period_s.fallback);
+  double max_force_n = bridge_keys::max_force_n.fallback;
   IrCurve ir_curve = IrCurve::default_curve();
   std::string ir_channel, state_channel, command_channel, estop_channel;
   // Whom it obeys (docs/security.md): GRIPPER_COMMAND from the bound
@@ -33,6 +63,7 @@ struct BridgeConfig {
   security::AuthorityConfig authority;
 
   static BridgeConfig from_config(const config::Node& root);
+  static std::vector<config::Section> schema();
 };
 
 class BridgeNode final : public rt::Node {

@@ -27,9 +27,24 @@ IrCurve::IrCurve(std::vector<IrKnot> knots) : knots_(std::move(knots)) {
   }
 }
 
+namespace {
+constexpr config::Numbers kPointsRaw{.name = "points_raw",
+                                     .doc = "raw readings of the calibration points, distinct",
+                                     .required = true};
+constexpr config::Numbers kPointsM{.name = "points_m", .unit = "m",
+                                   .doc = "their distances, as many, strictly monotone in raw",
+                                   .required = true};
+}  // namespace
+
+config::Section IrCurve::schema() {
+  return config::section("ir_calibration",
+                         "An IR calibration file (harvest-ir-calibrate writes it; the bridge's ir_calibration_file).",
+                         kPointsRaw, kPointsM);
+}
+
 IrCurve IrCurve::from_config(const config::Node& node) {
-  const auto raw = node.numbers("points_raw");
-  const auto dist = node.numbers("points_m");
+  const auto raw = node.get(kPointsRaw);
+  const auto dist = node.get(kPointsM);
   if (raw.size() != dist.size()) node.fail("points_m", "as many values as points_raw (" + std::to_string(raw.size()) + ")");
   std::vector<IrKnot> knots;
   for (std::size_t i = 0; i < raw.size(); ++i) knots.push_back({raw[i], dist[i]});

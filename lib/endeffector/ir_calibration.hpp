@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::endeffector {
 
@@ -36,6 +37,7 @@ class IrCurve {
 
   // `points_raw` and `points_m`, two lists of the same length.
   static IrCurve from_config(const config::Node& node);
+  static config::Section schema();
   // The curve used when no calibration is configured (matches the simulator's sensor, see docs).
   static IrCurve default_curve();
 

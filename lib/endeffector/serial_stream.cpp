@@ -9,14 +9,15 @@
 namespace harvest::endeffector {
 
 SerialOptions SerialOptions::from_config(const config::Node& node) {
+  namespace k = transport_keys;
   SerialOptions o;
-  o.port = node.required<std::string>("port");
+  o.port = node.get(k::serial_port);
   if (o.port.empty()) node.fail("port", "a serial device path such as /dev/ttyUSB0");
-  o.baud = node.get<int>("baud", o.baud, {50, 4'000'000});
-  o.data_bits = node.get<int>("data_bits", o.data_bits, {5, 8});
-  o.parity = node.choice("parity", o.parity, {"none", "odd", "even", "mark", "space"});
-  o.stop_bits = node.get<int>("stop_bits", o.stop_bits, {1, 2});
-  o.flow_control = node.choice("flow_control", o.flow_control, {"none", "xonxoff", "rtscts", "dtrdsr"});
+  o.baud = node.get(k::baud);
+  o.data_bits = node.get(k::data_bits);
+  o.parity = node.get(k::parity);
+  o.stop_bits = node.get(k::stop_bits);
+  o.flow_control = node.get(k::flow_control);
   return o;
 }
 

@@ -15,8 +15,8 @@ namespace harvest::endeffector {
 
 TcpOptions TcpOptions::from_config(const config::Node& node) {
   TcpOptions o;
-  o.host = node.get<std::string>("host", o.host);
-  o.port = node.get<int>("port", o.port, {1, 65535});
+  o.host = node.get(transport_keys::host);
+  o.port = node.get(transport_keys::tcp_port);
   ipv4_address(o.host, o.port, node.key_path("host"));  // validate now, not at the first connect
   return o;
 }
@@ -89,7 +89,7 @@ class TcpStream final : public ByteStream {
 std::unique_ptr<ByteStream> make_tcp_stream(TcpOptions options) { return std::make_unique<TcpStream>(std::move(options)); }
 
 std::unique_ptr<ByteStream> make_stream_from_config(const config::Node& node) {
-  const std::string kind = node.choice("transport", "tcp", {"tcp", "serial"});
+  const std::string kind = node.get(transport_keys::transport);
   // A file may carry both sections and switch with `transport` alone (e.g.
   // --set link.transport=serial); the section not in use is still validated.
   if (kind == "serial") {

@@ -45,13 +45,31 @@ class ByteStream {
 };
 
 // ---- serial line (libserialport) ----
+// The keys of a link mapping: `transport`, then a `tcp` or `serial` mapping.
+namespace transport_keys {
+using config::Key;
+inline constexpr config::Choice transport{"transport", "tcp", {"tcp", "serial"},
+                                          "which mapping is used (the other is still checked)"};
+inline constexpr Key<std::string> serial_port{.name = "port", .doc = "serial device, such as /dev/ttyUSB0",
+                                              .required = true};
+inline constexpr Key<int> baud{"baud", 115200, {50, 4'000'000}, "baud", "line speed"};
+inline constexpr Key<int> data_bits{"data_bits", 8, {5, 8}, "", "data bits per character"};
+inline constexpr config::Choice parity{"parity", "none", {"none", "odd", "even", "mark", "space"}, "parity bit"};
+inline constexpr Key<int> stop_bits{"stop_bits", 1, {1, 2}, "", "stop bits"};
+inline constexpr config::Choice flow_control{"flow_control", "none", {"none", "xonxoff", "rtscts", "dtrdsr"},
+                                             "flow control"};
+inline constexpr Key<std::string> host{"host", "127.0.0.1", {}, "",
+                                       "numeric address or localhost (no DNS lookup in the loop)"};
+inline constexpr Key<int> tcp_port{"port", 4001, {1, 65535}, "", "TCP port (ser2net, the simulator, the emulator)"};
+}  // namespace transport_keys
+
 struct SerialOptions {
   std::string port;  // "/dev/ttyUSB0"
-  int baud = 115200;
-  int data_bits = 8;
-  std::string parity = "none";  // none, odd, even, mark, space
-  int stop_bits = 1;            // 1 or 2
-  std::string flow_control = "none";  // none, xonxoff, rtscts, dtrdsr
+  int baud = transport_keys::baud.fallback;
+  int data_bits = transport_keys::data_bits.fallback;
+  std::string parity{transport_keys::parity.fallback};
+  int stop_bits = transport_keys::stop_bits.fallback;
+  std::string flow_control{transport_keys::flow_control.fallback};
 
   static SerialOptions from_config(const config::Node& node);
 };
@@ -59,8 +77,8 @@ std::unique_ptr<ByteStream> make_serial_stream(SerialOptions options);
 
 // ---- TCP client (ser2net, the simulator, the board emulator) ----
 struct TcpOptions {
-  std::string host = "127.0.0.1";  // numeric address or "localhost": no DNS lookup in the loop
-  int port = 4001;
+  std::string host{transport_keys::host.fallback};
+  int port = transport_keys::tcp_port.fallback;
 
   static TcpOptions from_config(const config::Node& node);
 };

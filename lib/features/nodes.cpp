@@ -4,71 +4,164 @@
 #include <opencv2/imgproc.hpp>
 
 #include "camera/image_codec.hpp"
+#include "config/schema.hpp"
 #include "runtime/channels.hpp"
 
 namespace harvest::features {
 
+namespace {
+// The keys of config/features/feature_tracker.yaml (docs/feature-tracker.md).
+// Their defaults are the parameter structs' (TrackerParams{}, MatcherParams{},
+// FeatureTrackerConfig{}); a test loads an empty file and compares.
+using config::Key;
+namespace kc {  // tracker.corners
+constexpr Key<int> window{"window", 7, {3, 31}, "px", "Shi-Tomasi window side, odd (thesis 7 x 7)"};
+constexpr Key<double> min_eigenvalue{"min_eigenvalue", 78.0, {0.0, 1e9}, "",
+                                     "absolute threshold on the smaller eigenvalue (eq. 2-3)"};
+constexpr Key<double> quality_level{"quality_level", 0.0, {0.0, 1.0}, "",
+                                    "also reject below this x the strongest eigenvalue (0: off)"};
+constexpr Key<double> min_distance_px{"min_distance_px", 10.0, {0.0, 1000.0}, "px",
+                                      "minimum spacing between accepted corners"};
+constexpr Key<int> border_px{"border_px", 10, {0, 1000}, "px", "pixels along the image edge not searched"};
+}  // namespace kc
+namespace kk {  // tracker.klt
+constexpr Key<int> window{"window", 7, {3, 63}, "px", "KLT window side, odd (thesis 7)"};
+constexpr Key<int> levels{"levels", 3, {1, 6}, "", "pyramid levels including the image (thesis 3)"};
+constexpr Key<int> max_iterations{"max_iterations", 30, {1, 1000}, "", "per level"};
+constexpr Key<double> epsilon_px{"epsilon_px", 0.1, {1e-6, 10.0}, "px",
+                                 "stop when a Newton step is shorter than this (thesis track_tol)"};
+constexpr Key<double> min_eigenvalue{"min_eigenvalue", 1e-2, {0.0, 1e9}, "",
+                                     "a window whose gradient matrix is weaker is lost"};
+constexpr Key<double> max_error{"max_error", 40.0, {0.0, 255.0}, "",
+                                "drop a feature whose KLT residual exceeds this (grey levels)"};
+}  // namespace kk
+namespace kt {  // tracker
+constexpr Key<int> max_features{"max_features", 100, {1, 10000}, "", "replenish up to this many"};
+constexpr Key<int> min_features{"min_features", 30, {0, 10000}, "",
+                                "replenish when fewer are tracked (at most max_features)"};
+}  // namespace kt
+namespace km {  // matcher
+constexpr Key<int> orb_features{"orb_features", 1000, {10, 100000}, "", "ORB keypoints per image"};
+constexpr Key<int> orb_levels{"orb_levels", 8, {1, 16}, "", "ORB scale pyramid levels"};
+constexpr Key<double> orb_scale{"orb_scale", 1.2, {1.01, 2.0}, "", "ORB pyramid scale step"};
+constexpr Key<int> fast_threshold{"fast_threshold", 10, {1, 255}, "", "FAST corner threshold"};
+constexpr Key<double> ratio{"ratio", 0.8, {0.1, 1.0}, "", "Lowe ratio test"};
+constexpr Key<bool> mutual{"mutual", true, {}, "", "keep only mutual best matches"};
+constexpr Key<double> ransac_threshold_px{"ransac_threshold_px", 3.0, {0.01, 100.0}, "px",
+                                          "homography RANSAC inlier threshold"};
+constexpr Key<int> ransac_iterations{"ransac_iterations", 2000, {1, 1000000}, "", "RANSAC iterations"};
+constexpr Key<int64_t> seed{"seed", 1, {0, INT64_MAX}, "", "RANSAC seed (deterministic replay)"};
+constexpr Key<int> min_inliers{"min_inliers", 8, {4, 100000}, "",
+                               "fewer: STATUS_TOO_FEW (any 4 pairs fit a homography: 4 verifies nothing)"};
+constexpr Key<bool> refine{"refine", true, {}, "", "sub-pixel refinement with Lucas-Kanade"};
+constexpr Key<int> refine_window{"refine_window", 15, {3, 63}, "px", "its window side, odd"};
+constexpr Key<double> refine_max_shift_px{"refine_max_shift_px", 2.0, {0.01, 100.0}, "px",
+                                          "a refined point moving more than this is dropped"};
+constexpr Key<bool> track{"track", true, {}, "",
+                          "follow the desired corners frame to frame after a verified frame"};
+constexpr Key<int> track_corners{"track_corners", 200, {8, 10000}, "",
+                                 "Shi-Tomasi corners of the desired image that are followed"};
+constexpr Key<int> track_levels{"track_levels", 3, {1, 6}, "", "pyramid levels for the motion between two frames"};
+constexpr Key<double> track_min_fraction{"track_min_fraction", 0.5, {0.0, 1.0}, "",
+                                         "fewer of the corners verified: detect afresh"};
+}  // namespace km
+namespace kn {  // the node
+constexpr Key<std::string> camera{"camera", "hand", {}, "", "the camera's name (node and instance)"};
+constexpr Key<std::string> image_channel{"image_channel", channels::kCameraHand, {}, "", "images tracked"};
+constexpr Key<std::string> desired_channel{"desired_channel", channels::kCameraFixedZoom, {}, "",
+                                           "the desired (zoomed fixed-camera) image"};
+constexpr Key<std::string> fruit_channel{"fruit_channel", channels::kFruitHand, {}, "",
+                                         "detections defining the region (region fruit)"};
+constexpr Key<std::string> tracks_channel{"tracks_channel", channels::kFeaturesHand, {}, "", "tracks out"};
+constexpr Key<std::string> matches_channel{"matches_channel", channels::kFeatureMatches, {}, "", "matches out"};
+constexpr config::Choice region{"region", "image", {"image", "fruit"},
+                                "track in the whole image or around the selected fruit"};
+constexpr Key<double> fruit_margin{"fruit_margin", 0.2, {0.0, 10.0}, "",
+                                   "region fruit: margin around the box, a fraction of its size"};
+constexpr Key<double> fruit_max_age_s{"fruit_max_age_s", 0.5, {0.0, 3600.0}, "s",
+                                      "older detections do not define a region"};
+constexpr Key<bool> matching{"matching", true, {}, "", "match against the desired image: FEATURE_MATCHES"};
+}  // namespace kn
+}  // namespace
+
 TrackerParams tracker_params_from_yaml(const config::Node& n) {
   TrackerParams p;
   const config::Node c = n.child("corners");
-  p.corners.window = c.get("window", p.corners.window, {3, 31});
+  p.corners.window = c.get(kc::window);
   if (p.corners.window % 2 == 0) c.fail("window", "an odd number of pixels");
-  p.corners.min_eigenvalue = c.get("min_eigenvalue", p.corners.min_eigenvalue, {0.0, 1e9});
-  p.corners.quality_level = c.get("quality_level", p.corners.quality_level, {0.0, 1.0});
-  p.corners.min_distance = c.get("min_distance_px", p.corners.min_distance, {0.0, 1000.0});
-  p.corners.border = c.get("border_px", p.corners.border, {0, 1000});
+  p.corners.min_eigenvalue = c.get(kc::min_eigenvalue);
+  p.corners.quality_level = c.get(kc::quality_level);
+  p.corners.min_distance = c.get(kc::min_distance_px);
+  p.corners.border = c.get(kc::border_px);
   const config::Node k = n.child("klt");
-  p.lk.window = k.get("window", p.lk.window, {3, 63});
+  p.lk.window = k.get(kk::window);
   if (p.lk.window % 2 == 0) k.fail("window", "an odd number of pixels");
-  p.lk.levels = k.get("levels", p.lk.levels, {1, 6});
-  p.lk.max_iterations = k.get("max_iterations", p.lk.max_iterations, {1, 1000});
-  p.lk.epsilon_px = k.get("epsilon_px", p.lk.epsilon_px, {1e-6, 10.0});
-  p.lk.min_eigenvalue = k.get("min_eigenvalue", p.lk.min_eigenvalue, {0.0, 1e9});
-  p.max_error = k.get("max_error", p.max_error, {0.0, 255.0});
-  p.max_features = n.get("max_features", p.max_features, {1, 10000});
-  p.min_features = n.get("min_features", p.min_features, {0, p.max_features});
+  p.lk.levels = k.get(kk::levels);
+  p.lk.max_iterations = k.get(kk::max_iterations);
+  p.lk.epsilon_px = k.get(kk::epsilon_px);
+  p.lk.min_eigenvalue = k.get(kk::min_eigenvalue);
+  p.max_error = k.get(kk::max_error);
+  p.max_features = n.get(kt::max_features);
+  // At most max_features: a range known once that is read.
+  p.min_features = n.get<int>(kt::min_features.name, kt::min_features.fallback, {0, p.max_features});
   p.corners.max_corners = p.max_features;
   return p;
 }
 
 MatcherParams matcher_params_from_yaml(const config::Node& n) {
   MatcherParams p;
-  p.orb_features = n.get("orb_features", p.orb_features, {10, 100000});
-  p.orb_levels = n.get("orb_levels", p.orb_levels, {1, 16});
-  p.orb_scale = n.get("orb_scale", p.orb_scale, {1.01, 2.0});
-  p.fast_threshold = n.get("fast_threshold", p.fast_threshold, {1, 255});
-  p.ratio = n.get("ratio", p.ratio, {0.1, 1.0});
-  p.mutual = n.get("mutual", p.mutual);
-  p.ransac_threshold_px = n.get("ransac_threshold_px", p.ransac_threshold_px, {0.01, 100.0});
-  p.ransac_iterations = n.get("ransac_iterations", p.ransac_iterations, {1, 1000000});
-  p.seed = static_cast<uint64_t>(n.get<int64_t>("seed", static_cast<int64_t>(p.seed), {0, INT64_MAX}));
-  p.min_inliers = n.get("min_inliers", p.min_inliers, {4, 100000});
-  p.refine = n.get("refine", p.refine);
-  p.refine_lk.window = n.get("refine_window", p.refine_lk.window, {3, 63});
+  p.orb_features = n.get(km::orb_features);
+  p.orb_levels = n.get(km::orb_levels);
+  p.orb_scale = n.get(km::orb_scale);
+  p.fast_threshold = n.get(km::fast_threshold);
+  p.ratio = n.get(km::ratio);
+  p.mutual = n.get(km::mutual);
+  p.ransac_threshold_px = n.get(km::ransac_threshold_px);
+  p.ransac_iterations = n.get(km::ransac_iterations);
+  p.seed = static_cast<uint64_t>(n.get(km::seed));
+  p.min_inliers = n.get(km::min_inliers);
+  p.refine = n.get(km::refine);
+  p.refine_lk.window = n.get(km::refine_window);
   if (p.refine_lk.window % 2 == 0) n.fail("refine_window", "an odd number of pixels");
-  p.refine_max_shift_px = n.get("refine_max_shift_px", p.refine_max_shift_px, {0.01, 100.0});
-  p.track = n.get("track", p.track);
-  p.track_corners = n.get("track_corners", p.track_corners, {8, 10000});
-  p.track_levels = n.get("track_levels", p.track_levels, {1, 6});
-  p.track_min_fraction = n.get("track_min_fraction", p.track_min_fraction, {0.0, 1.0});
+  p.refine_max_shift_px = n.get(km::refine_max_shift_px);
+  p.track = n.get(km::track);
+  p.track_corners = n.get(km::track_corners);
+  p.track_levels = n.get(km::track_levels);
+  p.track_min_fraction = n.get(km::track_min_fraction);
   return p;
 }
 
 FeatureTrackerConfig FeatureTrackerConfig::from_yaml(const config::Node& n) {
   FeatureTrackerConfig c;
-  c.camera = n.get<std::string>("camera", c.camera);
-  c.image_channel = n.get<std::string>("image_channel", channels::kCameraHand);
-  c.desired_channel = n.get<std::string>("desired_channel", channels::kCameraFixedZoom);
-  c.fruit_channel = n.get<std::string>("fruit_channel", channels::kFruitHand);
-  c.tracks_channel = n.get<std::string>("tracks_channel", channels::kFeaturesHand);
-  c.matches_channel = n.get<std::string>("matches_channel", channels::kFeatureMatches);
-  c.region = n.choice("region", c.region, {"image", "fruit"});
-  c.fruit_margin = n.get("fruit_margin", c.fruit_margin, {0.0, 10.0});
-  c.fruit_max_age_s = n.get("fruit_max_age_s", c.fruit_max_age_s, {0.0, 3600.0});
-  c.matching = n.get("matching", c.matching);
+  c.camera = n.get(kn::camera);
+  c.image_channel = n.get(kn::image_channel);
+  c.desired_channel = n.get(kn::desired_channel);
+  c.fruit_channel = n.get(kn::fruit_channel);
+  c.tracks_channel = n.get(kn::tracks_channel);
+  c.matches_channel = n.get(kn::matches_channel);
+  c.region = n.get(kn::region);
+  c.fruit_margin = n.get(kn::fruit_margin);
+  c.fruit_max_age_s = n.get(kn::fruit_max_age_s);
+  c.matching = n.get(kn::matching);
   c.tracker = tracker_params_from_yaml(n.child("tracker"));
   c.matcher = matcher_params_from_yaml(n.child("matcher"));
   return c;
+}
+
+std::vector<config::Section> FeatureTrackerConfig::schema() {
+  const std::string where = "harvest-feature-tracker, config/features/feature_tracker.yaml (docs/feature-tracker.md).";
+  return {config::section("feature_tracker", where, kn::camera, kn::image_channel, kn::desired_channel,
+                          kn::fruit_channel, kn::tracks_channel, kn::matches_channel, kn::region, kn::fruit_margin,
+                          kn::fruit_max_age_s, kn::matching),
+          config::section("feature_tracker.tracker", where, kt::max_features, kt::min_features),
+          config::section("feature_tracker.tracker.corners", where, kc::window, kc::min_eigenvalue, kc::quality_level,
+                          kc::min_distance_px, kc::border_px),
+          config::section("feature_tracker.tracker.klt", where, kk::window, kk::levels, kk::max_iterations,
+                          kk::epsilon_px, kk::min_eigenvalue, kk::max_error),
+          config::section("feature_tracker.matcher", where, km::orb_features, km::orb_levels, km::orb_scale,
+                          km::fast_threshold, km::ratio, km::mutual, km::ransac_threshold_px, km::ransac_iterations,
+                          km::seed, km::min_inliers, km::refine, km::refine_window, km::refine_max_shift_px, km::track,
+                          km::track_corners, km::track_levels, km::track_min_fraction)};
 }
 
 FeatureTrackerNode::FeatureTrackerNode(FeatureTrackerConfig config)

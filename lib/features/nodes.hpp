@@ -8,6 +8,7 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "features/matcher.hpp"
 #include "features/tracker.hpp"
 #include "harvest/feature_matches_t.hpp"
@@ -36,6 +37,7 @@ struct FeatureTrackerConfig {
   MatcherParams matcher;
 
   static FeatureTrackerConfig from_yaml(const config::Node& node);
+  static std::vector<config::Section> schema();
 };
 
 // Reads the `tracker` / `matcher` blocks (exposed for tools and tests).

@@ -70,8 +70,14 @@ CameraModel CameraModel::load(const std::filesystem::path& file) {
   return c;
 }
 
-CameraModel CameraModel::from_config(const config::Node& n, const std::string& key, const std::string& fallback) {
-  const auto path = n.file_path(key, fallback);
+CameraModel CameraModel::from_config(const config::Node& n, const config::Key<config::Path>& key) {
+  return from_config(n, key, std::string(key.fallback));
+}
+
+CameraModel CameraModel::from_config(const config::Node& n, const config::Key<config::Path>& key_decl,
+                                     const std::string& derived_fallback) {
+  const std::string key = key_decl.name;
+  const auto path = key_decl.required ? n.file_path(key) : n.file_path(key, derived_fallback);
   try {
     return load(path);
   } catch (const std::exception& e) {

@@ -42,7 +42,10 @@ struct CameraModel {
   // file, `fallback` if absent): the one way every process reads a
   // calibration, so a file loads the same in each. A bad file fails as a
   // config::Error naming the key, the file and the problem.
-  static CameraModel from_config(const config::Node& n, const std::string& key, const std::string& fallback);
+  static CameraModel from_config(const config::Node& n, const config::Key<config::Path>& key);
+  // The same with a default derived from other keys (`key.derived` says how).
+  static CameraModel from_config(const config::Node& n, const config::Key<config::Path>& key,
+                                 const std::string& derived_fallback);
   // Writes the same format (round-trips through load()).
   void save(const std::filesystem::path& file) const;
 

@@ -4,31 +4,39 @@ namespace harvest::geometry {
 
 namespace {
 
-Eigen::Vector3d vec3(const config::Node& n, const std::string& key) {
-  const auto v = n.numbers(key, 3);
+Eigen::Vector3d vec3(const config::Node& n, const config::Numbers& key) {
+  const auto v = n.get(key);
   return {v[0], v[1], v[2]};
 }
 
 }  // namespace
 
 Envelope Envelope::from_yaml(const config::Node& n) {
+  namespace k = envelope_keys;
   Envelope e;
   const config::Node ws = n.required_child("workspace");
-  e.min = vec3(ws, "min");
-  e.max = vec3(ws, "max");
+  e.min = vec3(ws, k::workspace_min);
+  e.max = vec3(ws, k::workspace_max);
   if ((e.min.array() >= e.max.array()).any()) ws.fail("max", "greater than min on every axis");
-  // Floors: the robot link refuses pose goals capped below 0.01 m/s and
-  // 0.02 rad/s (limits.min_goal_*_speed), so the controller's caps, which are
-  // these speeds, must not be lower.
-  e.max_linear_speed = n.required<double>("max_linear_speed", {0.01, 2.0});
-  e.max_angular_speed = n.required<double>("max_angular_speed", {0.02, 5.0});
-  e.max_linear_acceleration = n.required<double>("max_linear_acceleration", {0.01, 10.0});
-  e.max_angular_acceleration = n.required<double>("max_angular_acceleration", {0.01, 20.0});
+  e.max_linear_speed = n.get(k::max_linear_speed);
+  e.max_angular_speed = n.get(k::max_angular_speed);
+  e.max_linear_acceleration = n.get(k::max_linear_acceleration);
+  e.max_angular_acceleration = n.get(k::max_angular_acceleration);
   return e;
 }
 
-Envelope Envelope::from_config(const config::Node& n, const std::string& key, const std::string& fallback) {
-  const auto path = n.file_path(key, fallback);
+std::vector<config::Section> Envelope::schema() {
+  namespace k = envelope_keys;
+  const std::string where = "The robot envelope file (config/arm/envelope.yaml), read by the robot link and the servo "
+                            "controller; every key is required.";
+  return {config::section("envelope", where, k::max_linear_speed, k::max_angular_speed, k::max_linear_acceleration,
+                          k::max_angular_acceleration),
+          config::section("envelope.workspace", where, k::workspace_min, k::workspace_max)};
+}
+
+Envelope Envelope::from_config(const config::Node& n, const config::Key<config::Path>& key_decl) {
+  const std::string key = key_decl.name;
+  const auto path = n.get(key_decl);
   try {
     auto doc = config::Document::load_file(path);
     const Envelope e = from_yaml(doc.root());

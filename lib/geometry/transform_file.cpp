@@ -4,11 +4,28 @@
 #include <cstdio>
 #include <sstream>
 
+#include "config/schema.hpp"
+
 namespace harvest::geometry {
 
+namespace {
+constexpr config::Numbers kRotation{.name = "rotation", .size = 9,
+                                    .doc = "row-major rotation (a reflection only where the file allows it)",
+                                    .required = true};
+constexpr config::Numbers kTranslation{.name = "translation_mm", .size = 3, .unit = "mm", .doc = "translation",
+                                       .required = true};
+}  // namespace
+
+config::Section transform_file_schema() {
+  return config::section("transform_file",
+                         "A transform file (config/cameras/hand_eye.yaml, fixed_extrinsic.yaml; harvest-calibrate "
+                         "writes them).",
+                         kRotation, kTranslation);
+}
+
 Eigen::Isometry3d read_transform(const config::Node& n, Handedness handedness) {
-  const std::vector<double> r = n.numbers("rotation", 9);
-  const std::vector<double> t = n.numbers("translation_mm", 3);
+  const std::vector<double> r = n.get(kRotation);
+  const std::vector<double> t = n.get(kTranslation);
   Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
   out.linear() << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
   if ((out.linear() * out.linear().transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6)

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::geometry {
 
@@ -27,6 +28,9 @@ enum class Handedness {
 Eigen::Isometry3d read_transform(const config::Node& node, Handedness handedness);
 
 // Loads a whole file holding only that mapping (unknown keys are errors).
+// The keys of a transform file, for the reference.
+config::Section transform_file_schema();
+
 Eigen::Isometry3d load_transform_file(const std::filesystem::path& file, Handedness handedness);
 
 // The YAML text of a transform, each line of `comment` as a leading "# "

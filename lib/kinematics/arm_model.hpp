@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::kinematics {
 
@@ -47,6 +48,7 @@ struct ArmModel {
 
   // Reads the `arm` mapping (see config/arm/k1207i.yaml). Throws config::Error.
   static ArmModel from_config(const config::Node& node);
+  static std::vector<config::Section> schema();
   // Loads a whole file whose root is the arm mapping and checks for unknown keys.
   static ArmModel load(const std::string& path);
 };

@@ -37,16 +37,72 @@ std::vector<std::string> strings(const config::Node& n, const std::string& key) 
   return out;
 }
 
+// The keys of a launch set file (config/sets/*.yaml, docs/launcher.md).
+namespace lk {
+using config::Key;
+namespace restart {
+constexpr config::Choice policy{"policy", "on-failure", {"never", "on-failure", "always"}, "when to restart it"};
+constexpr Key<int> max_restarts{"max_restarts", 3, {-1, 1000}, "", "restarts in a row before giving up (-1: no limit)"};
+constexpr Key<double> backoff_s{"backoff_s", 0.5, {0.0, 3600.0}, "s", "wait before the first restart ..."};
+constexpr Key<double> backoff_factor{"backoff_factor", 2.0, {1.0, 10.0}, "", "... multiplied by this each time ..."};
+constexpr Key<double> backoff_max_s{"backoff_max_s", 10.0, {0.0, 3600.0}, "s", "... up to this (at least backoff_s)"};
+constexpr Key<double> reset_after_s{"reset_after_s", 30.0, {0.0, 86400.0}, "s",
+                                    "running this long counts as healthy: the count starts again"};
+}  // namespace restart
+namespace set {
+constexpr Key<std::string> name{.name = "name", .doc = "the set's name", .derived = "the file's name"};
+constexpr Key<std::string> bin_dir{"bin_dir", "../../build/bin", {}, "", "where the commands are (beside the file)"};
+constexpr Key<std::string> lcm_url{"lcm_url", "", {}, "", "LCM URL for every process (empty: theirs)"};
+constexpr Key<std::string> prefix{"prefix", "", {}, "", "channel prefix for every process"};
+constexpr Key<std::string> site{"site", "", {}, "", "the site file whose values ${site.KEY} substitute"};
+}  // namespace set
+namespace process {
+constexpr Key<std::string> name{.name = "name", .doc = "unique, no spaces or '/'", .required = true};
+constexpr Key<std::string> command{.name = "command", .doc = "the program (in bin_dir unless a path)", .required = true};
+constexpr Key<std::string> cwd{"cwd", "../..", {}, "", "working directory (beside the file)"};
+constexpr Key<std::string> group{"group", "default", {}, "", "group name (start and stop together)"};
+constexpr Key<bool> critical{"critical", false, {}, "", "its giving up stops the set"};
+constexpr Key<bool> stop_first{"stop_first", false, {}, "", "stopped before the others"};
+constexpr Key<bool> ends_set{"ends_set", false, {}, "", "its clean exit ends the set"};
+constexpr Key<bool> harvest_options{"harvest_options", true, {}, "",
+                                    "a harvest process: gets --lcm-url, --prefix, --instance; sends heartbeats"};
+constexpr Key<double> heartbeat_timeout_s{.name = "heartbeat_timeout_s", .range = {0.0, 3600.0}, .unit = "s",
+                                          .doc = "no heartbeat this long: hung (0: not watched)",
+                                          .derived = "3 with harvest_options, else 0"};
+constexpr Key<double> stop_timeout_s{"stop_timeout_s", 5.0, {0.0, 600.0}, "s", "SIGTERM, then SIGKILL after this"};
+constexpr Key<double> ready_timeout_s{"ready_timeout_s", 10.0, {0.0, 600.0}, "s",
+                                      "processes after it wait this long for its first heartbeat"};
+}  // namespace process
+namespace recording {
+constexpr Key<bool> enabled{"enabled", false, {}, "", "record the run"};
+constexpr Key<std::string> folder{"folder", "../../logs/runs", {}, "", "where logs go (beside the file)"};
+constexpr Key<std::string> file_prefix{.name = "file_prefix", .doc = "log file names start so",
+                                       .derived = "the set's name"};
+constexpr Key<std::string> channels{"channels", ".*", {}, "", "regular expression of channels recorded"};
+constexpr Key<bool> invert_channels{"invert_channels", false, {}, "", "record everything that does NOT match"};
+constexpr Key<double> split_mb{"split_mb", 0.0, {0.0, 1e6}, "MB", "start a new file at this size (0: one file)"};
+constexpr Key<std::string> logger{"logger", "harvest-record", {}, "", "the recorder program"};
+constexpr Key<double> image_rate_hz{"image_rate_hz", 0.0, {0.0, 1000.0}, "Hz",
+                                    "image_channels at most this often (0: every frame)"};
+constexpr Key<std::string> image_channels{"image_channels", "CAMERA_.*", {}, "", "regular expression"};
+constexpr Key<double> status_s{"status_s", 10.0, {0.0, 3600.0}, "s", "size/rate/free-space line this often (0: never)"};
+constexpr Key<double> warn_free_mb{"warn_free_mb", 1000.0, {0.0, 1e9}, "MB", "warn while less is free on its disk"};
+constexpr Key<double> warn_fill_minutes{"warn_fill_minutes", 10.0, {0.0, 1e6}, "min",
+                                        "warn while the disk would fill within this at the current rate"};
+}  // namespace recording
+}  // namespace lk
+
 RestartPolicy parse_restart(const config::Node& n) {
   check_keys(n, {"policy", "max_restarts", "backoff_s", "backoff_factor", "backoff_max_s", "reset_after_s"});
   RestartPolicy r;
-  const std::string mode = n.choice("policy", "on-failure", {"never", "on-failure", "always"});
+  namespace k = lk::restart;
+  const std::string mode = n.get(k::policy);
   r.mode = mode == "never" ? RestartMode::kNever : mode == "always" ? RestartMode::kAlways : RestartMode::kOnFailure;
-  r.max_restarts = n.get<int>("max_restarts", r.max_restarts, {-1, 1000});
-  r.backoff_initial_s = n.get<double>("backoff_s", r.backoff_initial_s, {0.0, 3600.0});
-  r.backoff_factor = n.get<double>("backoff_factor", r.backoff_factor, {1.0, 10.0});
-  r.backoff_max_s = n.get<double>("backoff_max_s", r.backoff_max_s, {0.0, 3600.0});
-  r.reset_after_s = n.get<double>("reset_after_s", r.reset_after_s, {0.0, 86400.0});
+  r.max_restarts = n.get(k::max_restarts);
+  r.backoff_initial_s = n.get(k::backoff_s);
+  r.backoff_factor = n.get(k::backoff_factor);
+  r.backoff_max_s = n.get(k::backoff_max_s);
+  r.reset_after_s = n.get(k::reset_after_s);
   if (r.backoff_max_s < r.backoff_initial_s) n.fail("backoff_max_s", "a value >= backoff_s");
   return r;
 }
@@ -66,7 +122,7 @@ SiteSpec load_site(const config::Node& root, const std::filesystem::path& set_fi
   if (!over.file.empty())
     site.file = std::filesystem::absolute(over.file).lexically_normal();
   else if (root.has("site"))
-    site.file = beside(set_file, root.get<std::string>("site", ""));
+    site.file = beside(set_file, root.get(lk::set::site));
   config::Document doc = site.file.empty() ? config::Document::load_string("{}", "<no site file>")
                                            : config::Document::load_file(site.file);
   for (const auto& a : over.assignments) {
@@ -131,11 +187,10 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
   check_keys(root, {"name", "bin_dir", "lcm_url", "prefix", "site", "processes", "recording"});
   SetSpec s;
   s.file = std::filesystem::absolute(set_file).lexically_normal();
-  s.name = root.get<std::string>("name", set_file.stem().string());
-  s.bin_dir = bin_dir_override.empty() ? beside(s.file, root.get<std::string>("bin_dir", "../../build/bin"))
-                                       : bin_dir_override;
-  s.lcm_url = root.get<std::string>("lcm_url", "");
-  s.prefix = root.get<std::string>("prefix", "");
+  s.name = root.get(lk::set::name, set_file.stem().string());
+  s.bin_dir = bin_dir_override.empty() ? beside(s.file, root.get(lk::set::bin_dir)) : bin_dir_override;
+  s.lcm_url = root.get(lk::set::lcm_url);
+  s.prefix = root.get(lk::set::prefix);
   s.site = load_site(root, s.file, site_overrides);
 
   std::set<std::string> names;
@@ -143,28 +198,29 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
     check_keys(p, {"name", "command", "args", "env", "cwd", "group", "after", "restart", "critical", "stop_first",
                    "ends_set", "harvest_options", "heartbeat_timeout_s", "stop_timeout_s", "ready_timeout_s"});
     ProcessSpec ps;
-    ps.name = p.required<std::string>("name");
+    namespace kp = lk::process;
+    ps.name = p.get(kp::name);
     if (ps.name.empty() || ps.name.find_first_of(" \t/") != std::string::npos)
       p.fail("name", "a non-empty name without spaces or '/', got '" + ps.name + "'");
     if (!names.insert(ps.name).second) p.fail("name", "a unique name, '" + ps.name + "' is used twice");
-    ps.command = p.required<std::string>("command");
+    ps.command = p.get(kp::command);
     std::vector<std::string> used;
     for (const auto& a : strings(p, "args")) ps.args.push_back(substitute(a, s.site, s.file.string() + ": " + p.key_path("args"), used));
     const config::Node env = p.child("env");
     for (const auto& k : env.keys())
       ps.env[k] = substitute(env.required<std::string>(k), s.site, s.file.string() + ": " + env.key_path(k), used);
     if (!used.empty()) s.site.used_by[ps.name] = used;
-    ps.cwd = beside(s.file, p.get<std::string>("cwd", "../.."));
-    ps.group = p.get<std::string>("group", "default");
+    ps.cwd = beside(s.file, p.get(kp::cwd));
+    ps.group = p.get(kp::group);
     ps.after = strings(p, "after");
     ps.restart = parse_restart(p.child("restart"));
-    ps.critical = p.get<bool>("critical", false);
-    ps.stop_first = p.get<bool>("stop_first", false);
-    ps.ends_set = p.get<bool>("ends_set", false);
-    ps.harvest_options = p.get<bool>("harvest_options", true);
-    ps.heartbeat_timeout_s = p.get<double>("heartbeat_timeout_s", ps.harvest_options ? 3.0 : 0.0, {0.0, 3600.0});
-    ps.stop_timeout_s = p.get<double>("stop_timeout_s", 5.0, {0.0, 600.0});
-    ps.ready_timeout_s = p.get<double>("ready_timeout_s", 10.0, {0.0, 600.0});
+    ps.critical = p.get(kp::critical);
+    ps.stop_first = p.get(kp::stop_first);
+    ps.ends_set = p.get(kp::ends_set);
+    ps.harvest_options = p.get(kp::harvest_options);
+    ps.heartbeat_timeout_s = p.get(kp::heartbeat_timeout_s, ps.harvest_options ? 3.0 : 0.0);
+    ps.stop_timeout_s = p.get(kp::stop_timeout_s);
+    ps.ready_timeout_s = p.get(kp::ready_timeout_s);
     s.processes.push_back(std::move(ps));
   }
   if (s.processes.empty()) root.fail("processes", "a non-empty list of processes");
@@ -172,21 +228,40 @@ SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_fil
   const config::Node rec = root.child("recording");
   check_keys(rec, {"enabled", "folder", "file_prefix", "channels", "invert_channels", "split_mb", "logger",
                    "image_rate_hz", "image_channels", "status_s", "warn_free_mb", "warn_fill_minutes"});
-  s.recording.enabled = rec.get<bool>("enabled", false);
-  s.recording.folder = beside(s.file, rec.get<std::string>("folder", "../../logs/runs"));
-  s.recording.file_prefix = rec.get<std::string>("file_prefix", s.name);
-  s.recording.channels = rec.get<std::string>("channels", ".*");
-  s.recording.invert_channels = rec.get<bool>("invert_channels", false);
-  s.recording.split_mb = rec.get<double>("split_mb", 0.0, {0.0, 1e6});
-  s.recording.logger = rec.get<std::string>("logger", s.recording.logger);
-  s.recording.image_rate_hz = rec.get<double>("image_rate_hz", 0.0, {0.0, 1000.0});
-  s.recording.image_channels = rec.get<std::string>("image_channels", s.recording.image_channels);
-  s.recording.status_s = rec.get<double>("status_s", s.recording.status_s, {0.0, 3600.0});
-  s.recording.warn_free_mb = rec.get<double>("warn_free_mb", s.recording.warn_free_mb, {0.0, 1e9});
-  s.recording.warn_fill_minutes = rec.get<double>("warn_fill_minutes", s.recording.warn_fill_minutes, {0.0, 1e6});
+  namespace kr = lk::recording;
+  s.recording.enabled = rec.get(kr::enabled);
+  s.recording.folder = beside(s.file, rec.get(kr::folder));
+  s.recording.file_prefix = rec.get(kr::file_prefix, s.name);
+  s.recording.channels = rec.get(kr::channels);
+  s.recording.invert_channels = rec.get(kr::invert_channels);
+  s.recording.split_mb = rec.get(kr::split_mb);
+  s.recording.logger = rec.get(kr::logger);
+  s.recording.image_rate_hz = rec.get(kr::image_rate_hz);
+  s.recording.image_channels = rec.get(kr::image_channels);
+  s.recording.status_s = rec.get(kr::status_s);
+  s.recording.warn_free_mb = rec.get(kr::warn_free_mb);
+  s.recording.warn_fill_minutes = rec.get(kr::warn_fill_minutes);
 
   start_order(s);  // throws on unknown dependencies and cycles
   return s;
+}
+
+std::vector<config::Section> set_schema() {
+  const std::string where = "harvest-launch, config/sets/*.yaml (docs/launcher.md).";
+  namespace kp = lk::process;
+  namespace kr = lk::recording;
+  namespace kq = lk::restart;
+  return {config::section("set", where, lk::set::name, lk::set::bin_dir, lk::set::lcm_url, lk::set::prefix,
+                          lk::set::site),
+          config::section("set.processes[]", "Each process (also `args` and `after`: lists of strings; `env`: a "
+                          "mapping of strings).", kp::name, kp::command, kp::cwd, kp::group, kp::critical,
+                          kp::stop_first, kp::ends_set, kp::harvest_options, kp::heartbeat_timeout_s,
+                          kp::stop_timeout_s, kp::ready_timeout_s),
+          config::section("set.processes[].restart", where, kq::policy, kq::max_restarts, kq::backoff_s,
+                          kq::backoff_factor, kq::backoff_max_s, kq::reset_after_s),
+          config::section("set.recording", where, kr::enabled, kr::folder, kr::file_prefix, kr::channels,
+                          kr::invert_channels, kr::split_mb, kr::logger, kr::image_rate_hz, kr::image_channels,
+                          kr::status_s, kr::warn_free_mb, kr::warn_fill_minutes)};
 }
 
 SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override,

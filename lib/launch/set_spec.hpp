@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::launch {
 
@@ -102,6 +103,9 @@ void split_site_overrides(const std::vector<std::string>& overrides, std::vector
 // `site` chooses another site file and overrides site values.
 SetSpec parse_set(const config::Node& root, const std::filesystem::path& set_file,
                   const std::filesystem::path& bin_dir_override = {}, const SiteOverrides& site = {});
+// The set file's keys, for the reference (docs/configuration.md).
+std::vector<config::Section> set_schema();
+
 SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::path& bin_dir_override = {},
                  const SiteOverrides& site = {});
 

@@ -30,20 +30,30 @@ std::string join(const std::vector<std::string>& v) {
 }  // namespace
 
 AuthorityConfig AuthorityConfig::from_config(const config::Node& n, unsigned needs) {
+  namespace k = authority_keys;
   AuthorityConfig c;
-  c.key = n.required<std::string>("key");
+  c.key = n.get(k::key);
   if (c.key.empty()) n.fail("key", "'sim' or a key file (harvest-keygen)");
   if (c.key != kSimKeyName) c.key = n.file_path("key").string();
-  c.sender = n.get<std::string>("sender", "");
+  c.sender = n.get(k::sender);
   if ((needs & kSender) && c.sender.empty()) n.fail("sender", "this process's sender id (it signs commands)");
-  c.controller = n.get<std::string>("controller", "");
+  c.controller = n.get(k::controller);
   if ((needs & kController) && c.controller.empty())
     n.fail("controller", "the sender id of the one controller obeyed for motion commands");
-  c.operators = split_senders(n.get<std::string>("operators", "operator, console"));
+  c.operators = split_senders(n.get(k::operators));
   if (c.operators.empty()) n.fail("operators", "one or more sender ids, comma-separated");
-  c.max_age_us = n.get<int>("max_age_ms", 1000, {1, 60'000}) * rt::kMilli;
-  c.max_ahead_us = n.get<int>("max_ahead_ms", 100, {0, 10'000}) * rt::kMilli;
+  c.max_age_us = n.get(k::max_age_ms) * rt::kMilli;
+  c.max_ahead_us = n.get(k::max_ahead_ms) * rt::kMilli;
   return c;
+}
+
+config::Section AuthorityConfig::schema(const std::string& path, const std::string& where, unsigned needs) {
+  namespace k = authority_keys;
+  auto s = config::section(path, where, k::key, k::sender, k::controller, k::operators, k::max_age_ms, k::max_ahead_ms);
+  for (auto& key : s.keys)
+    if ((key.name == "sender" && (needs & kSender)) || (key.name == "controller" && (needs & kController)))
+      key.fallback = "required";
+  return s;
 }
 
 void refuse_sim_key_on_real_bus(const Key& key, const std::string& bus, const std::string& what) {

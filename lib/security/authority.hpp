@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "security/auth.hpp"
 #include "security/gate.hpp"
 
@@ -26,18 +27,37 @@ namespace harvest::security {
 // The key value naming the simulator's well-known key (sim_key()).
 inline constexpr const char* kSimKeyName = "sim";
 
+// The keys of a process's `authority` mapping (docs/security.md).
+namespace authority_keys {
+using config::Key;
+inline constexpr Key<std::string> key{.name = "key",
+                                      .doc = "`sim` (the simulator's public key) or a key file (harvest-keygen)",
+                                      .required = true};
+inline constexpr Key<std::string> sender{"sender", "", {}, "",
+                                         "this process's sender id, which it signs commands with"};
+inline constexpr Key<std::string> controller{"controller", "", {}, "",
+                                             "the sender id of the one controller obeyed for motion commands"};
+inline constexpr Key<std::string> operators{"operators", "operator, console", {}, "",
+                                            "sender ids obeyed for fault resets and e-stop clears, comma-separated"};
+inline constexpr Key<int> max_age_ms{"max_age_ms", 1000, {1, 60'000}, "ms", "a command signed longer ago is stale"};
+inline constexpr Key<int> max_ahead_ms{"max_ahead_ms", 100, {0, 10'000}, "ms",
+                                       "a sender's clock this far ahead is tolerated"};
+}  // namespace authority_keys
+
 struct AuthorityConfig {
   std::string key;  // kSimKeyName, or a key file path (absolute once loaded)
   std::string sender;
   std::string controller;
-  std::vector<std::string> operators{"operator", "console"};
-  rt::Micros max_age_us = 1 * rt::kSecond;
-  rt::Micros max_ahead_us = 100 * rt::kMilli;
+  std::vector<std::string> operators{"operator", "console"};  // authority_keys::operators, split
+  rt::Micros max_age_us = authority_keys::max_age_ms.fallback * rt::kMilli;
+  rt::Micros max_ahead_us = authority_keys::max_ahead_ms.fallback * rt::kMilli;
 
   // What a process needs from the section beyond the key; a missing part is
   // a config::Error naming the key.
   enum Needs : unsigned { kNothingElse = 0, kSender = 1, kController = 2 };
   static AuthorityConfig from_config(const config::Node& authority, unsigned needs = kNothingElse);
+  // Its keys for the reference, as `path` in `where` (what `needs` makes required).
+  static config::Section schema(const std::string& path, const std::string& where, unsigned needs = kNothingElse);
 
   Policy controller_policy() const { return Policy{{controller}, max_age_us, max_ahead_us}; }
   Policy operator_policy() const { return Policy{operators, max_age_us, max_ahead_us}; }

@@ -6,8 +6,10 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <string>
+#include <vector>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "geometry/camera_model.hpp"
 
 namespace harvest::servo {
@@ -17,130 +19,220 @@ namespace harvest::servo {
 // loader every process uses.
 inline const geometry::CameraModel kDefaultHandCamera{833.57, 767.02, 0.0, 319.5, 239.5, {}, 640, 480};
 
+// The keys of config/servo/controller.yaml, per mapping (docs/configuration.md).
+namespace servo_keys {
+using config::Key;
+using config::Numbers;
+inline constexpr Key<double> tick_period_s{"tick_period_s", 0.02, {0.001, 0.5}, "s", "command period (50 Hz)"};
+inline constexpr Key<double> status_period_s{"status_period_s", 1.0, {0.05, 60.0}, "s", "period of HARVEST_STATUS"};
+inline constexpr Key<double> validity_s{"validity_s", 0.1, {0.01, 2.0}, "s", "validity window of every robot command"};
+inline constexpr Key<double> ir_switch_distance{"ir_switch_distance", 0.4572, {1e-6, 1e6}, "m", "switch to IR guidance this far from the fruit (thesis: 18 in)"};
+inline constexpr Key<double> ir_approach_speed{"ir_approach_speed", 0.381, {1e-6, 1e6}, "m/s", "fastest forward speed under IR guidance (at most the envelope's speed)"};
+inline constexpr Key<double> ir_braking_decel{"ir_braking_decel", 0.8, {1e-6, 1e6}, "m/s^2", "braking so the tool would stop at the grasp range (at most the envelope's acceleration)"};
+inline constexpr Key<double> ir_min_speed{"ir_min_speed", 0.04, {1e-6, 1e6}, "m/s", "but never slower than this (at most ir_approach_speed)"};
+inline constexpr Key<double> ir_grasp_range{"ir_grasp_range", 0.015, {1e-6, 1e6}, "m", "IR range at or below which the fruit is inside the gripper"};
+inline constexpr Key<double> ir_max_travel{"ir_max_travel", 0.6, {1e-6, 1e6}, "m", "travel beyond the switch point before backing off"};
+inline constexpr Key<double> ir_overshoot{"ir_overshoot", 0.05, {0.0, 1e6}, "m", "or past the estimated fruit centre by this much"};
+inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.07, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
+inline constexpr Key<double> front_fruit_tolerance{"front_fruit_tolerance", 0.015, {0.0, 1e6}, "m", "a fruit in front filling the view is closed on only this near the gripper axis"};
+inline constexpr Key<double> grasp_advance{"grasp_advance", 0.015, {0.0, 0.05}, "m", "the arm goes on this far along the tool axis while the gripper closes"};
+inline constexpr Key<double> ir_fold_near{"ir_fold_near", 0.02, {0.0, 0.5}, "m", "a reading this near above the grasp range ..."};
+inline constexpr Key<double> ir_fold_jump{"ir_fold_jump", 0.03, {1e-3, 1.0}, "m", "... then one this much farther: the sensor folded back (fruit inside)"};
+inline constexpr Key<double> ir_progress_step{"ir_progress_step", 0.005, {1e-4, 0.1}, "m", "under IR guidance, less tool motion than this for timeouts_s.stall: blocked"};
+inline constexpr Key<int> ir_attempts{"ir_attempts", 2, {1, 10}, "", "IR approaches per fruit (thesis: retry once)"};
+inline constexpr Key<double> orient_tolerance{"orient_tolerance", 0.02, {1e-6, 1e6}, "rad", "orientation reached"};
+inline constexpr Key<double> position_tolerance{"position_tolerance", 0.005, {1e-6, 1e6}, "m", "pose goal reached"};
+inline constexpr Key<double> retreat_distance{"retreat_distance", 0.15, {0.0, 1e6}, "m", "pull back along the tool axis after a failure"};
+inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
+inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
+inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
+inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
+inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
+inline constexpr Key<double> min_ahead_of_home{"min_ahead_of_home", 0.05, {-10.0, 10.0}, "m", "a target must lie this far ahead of the tool at home, along its axis"};
+inline constexpr Key<double> max_aim_angle{"max_aim_angle", 1.15, {0.0, 1.6}, "rad", "a fruit farther off the gripper axis at home is aimed at from a viewpoint"};
+inline constexpr Key<double> view_angle{"view_angle", 0.5, {0.0, 1.5}, "rad", "the viewpoint turns the home axis this far toward the fruit (0: always aim from home)"};
+inline constexpr Key<double> view_distance{"view_distance", 0.5, {0.1, 1.5}, "m", "the viewpoint lies this far short of the fruit"};
+inline constexpr Key<double> triangulation_gap{"triangulation_gap", 0.06, {0.0, 0.5}, "m", "the hand and fixed cameras' rays crossing within this give the position (0: size only)"};
+inline constexpr Key<double> min_triangulation_angle{"min_triangulation_angle", 0.2, {0.01, 1.5}, "rad", "... when they cross at this angle or more"};
+inline constexpr Key<double> same_fruit_distance{"same_fruit_distance", 0.05, {0.0, 1e6}, "m", "a fixed-camera target this close to a given-up one is that fruit"};
+inline constexpr Key<double> same_sight_angle{"same_sight_angle", 0.02, {0.0, 0.5}, "rad", "or, with a doubtful depth, its line of sight this close to one"};
+inline constexpr Key<double> reused_id_distance{"reused_id_distance", 0.15, {0.0, 1e6}, "m", "a finished id seen this far from where it finished is another fruit"};
+inline constexpr Key<double> size_agreement{"size_agreement", 0.3, {0.0, 10.0}, "", "a size-based hand estimate agrees with the rays' crossing within this share of the range ..."};
+inline constexpr Key<double> size_agreement_min{"size_agreement_min", 0.1, {0.0, 10.0}, "m", "... or at least this"};
+inline constexpr Key<double> fills_view{"fills_view", 0.8, {0.1, 1.0}, "", "a hand detection this share of the image height fills the view: no depth from its size"};
+inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
+inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};
+inline constexpr Key<double> goal_progress_step{"goal_progress_step", 0.002, {1e-5, 0.1}, "m", "a pose-goal motion progresses by getting this much nearer (timeouts_s.stall without: blocked) ..."};
+inline constexpr Key<double> goal_progress_angle{"goal_progress_angle", 0.01, {1e-5, 0.5}, "rad", "... or this much"};
+inline constexpr Key<double> in_view_margin{"in_view_margin", 0.2, {0.0, 0.49}, "", "an ORIENT blocked with the estimate this far (share of each side) inside the hand image goes on to ACQUIRE"};
+inline constexpr Key<double> sight_aim_margin{"sight_aim_margin", 0.07, {0.0, 0.5}, "rad", "aiming along a line of sight: the hand camera's half field of view less this"};
+inline constexpr config::Choice approach_mode{"approach_mode", "reconstruction", {"reconstruction", "tbz"}, "approach strategy (approach.hpp)"};
+inline constexpr config::Choice orient_law{"orient_law", "pose_goal", {"pose_goal", "thesis_pd"}, "ORIENT in place: a pose goal the link runs, or the thesis PD law on the aim angles (eq. 6-24)"};
+inline constexpr Key<config::Path> envelope{"envelope", "config/arm/envelope.yaml", {}, "", "the robot envelope (speed and acceleration limits, the box the workspace must lie in)"};
+inline constexpr Key<config::Path> hand_camera_calibration{"hand_camera_calibration", "config/cameras/hand.yaml", {}, "", "the hand camera's intrinsic calibration"};
+namespace workspace {
+inline constexpr Numbers min{"min", 3, {-0.9, 0.3, -1.0}, "m", "box in the base frame the tool never leaves: lower corner (inside the envelope's)"};
+inline constexpr Numbers max{"max", 3, {0.7, 1.3, 0.3}, "m", "upper corner, greater than min"};
+inline constexpr Key<double> min_reach{"min_reach", 0.3, {0.0, 1e6}, "m", "reach shell around the base origin: inner radius"};
+inline constexpr Key<double> max_reach{"max_reach", 1.5, {1e-6, 1e6}, "m", "outer radius (greater than min_reach)"};
+}  // namespace workspace
+namespace pose {
+inline constexpr Numbers home_position{"position", 3, {-0.655, 0.785, -0.251}, "m", "home: the thesis experiment I start pose (table 6-5), inside the workspace"};
+inline constexpr Numbers home_orientation{"orientation_wxyz", 4, {0.5, -0.5, -0.5, -0.5}, "", "unit quaternion (w, x, y, z): gripper axis along base +y"};
+inline constexpr Numbers drop_position{"position", 3, {-0.5, 0.72, -0.25}, "m", "where fruit is dropped, inside the workspace"};
+inline constexpr Numbers drop_orientation{"orientation_wxyz", 4, {0.5, -0.5, -0.5, -0.5}, "", "unit quaternion (w, x, y, z)"};
+}  // namespace pose
+namespace gains {
+inline constexpr Key<double> kp_lateral{"kp_lateral", 2.0, {0.0, 1e6}, "1/s", "gain on the metric centring error (eq. 6-25, 6-26)"};
+inline constexpr Key<double> kd_lateral{"kd_lateral", 0.05, {0.0, 1e6}, "s", "its derivative gain"};
+inline constexpr Key<double> kp_depth{"kp_depth", 1.0, {0.0, 1e6}, "1/s", "gain on the depth error (eq. 6-27)"};
+inline constexpr Key<double> kd_depth{"kd_depth", 0.0, {0.0, 1e6}, "s", "its derivative gain"};
+inline constexpr Key<double> derivative_filter{"derivative_filter", 0.5, {0.0, 1.0}, "", "low-pass weight of the newest error derivative"};
+inline constexpr Key<double> centring_tolerance{"centring_tolerance", 0.005, {0.0, 1e6}, "m", "advance no faster than the centring brings the fruit within this of the gripper axis (0: no bound)"};
+inline constexpr Key<double> sway_window{"sway_window", 2.5, {0.0, 1e6}, "s", "under IR guidance, centre on the fruit's mean position over this long (0: its newest)"};
+inline constexpr Key<double> kp_orient{"kp_orient", 2.0, {0.01, 100.0}, "1/s", "orient_law thesis_pd: gain on the aim angles (eq. 6-24)"};
+inline constexpr Key<double> kd_orient{"kd_orient", 0.05, {0.0, 1e6}, "s", "its derivative gain"};
+}  // namespace gains
+namespace timeouts_s {
+inline constexpr Key<double> select{"select", 3.0, {0.01, 600.0}, "s", "wait for a fresh fixed-camera view"};
+inline constexpr Key<double> motion{"motion", 20.0, {0.01, 600.0}, "s", "any pose-goal motion (orient, detach, drop, return, home)"};
+inline constexpr Key<double> stall{"stall", 2.0, {0.01, 600.0}, "s", "a pose-goal motion that gets no closer to its goal this long is blocked"};
+inline constexpr Key<double> acquire{"acquire", 3.0, {0.01, 600.0}, "s", "the fruit must appear in the hand camera after orienting"};
+inline constexpr Key<double> lost{"lost", 0.3, {0.01, 600.0}, "s", "no hand measurement this long: hold and re-acquire"};
+inline constexpr Key<double> reacquire{"reacquire", 2.0, {0.01, 600.0}, "s", "... and give the fruit up (LOST) after this long"};
+inline constexpr Key<double> approach{"approach", 30.0, {0.01, 600.0}, "s", "the whole visual approach"};
+inline constexpr Key<double> ir_approach{"ir_approach", 8.0, {0.01, 600.0}, "s", "one IR-guided attempt"};
+inline constexpr Key<double> grasp{"grasp", 3.0, {0.01, 600.0}, "s", "the gripper must report holding / closed"};
+inline constexpr Key<double> release{"release", 3.0, {0.01, 600.0}, "s", "the gripper must report open"};
+inline constexpr Key<double> robot_state{"robot_state", 0.25, {0.01, 600.0}, "s", "robot state watchdog while running"};
+inline constexpr Key<double> ir_stale{"ir_stale", 0.3, {0.01, 600.0}, "s", "an IR reading older than this: do not advance"};
+}  // namespace timeouts_s
+}  // namespace servo_keys
+
 // Axis-aligned box in the base frame plus a reach shell around the base
 // origin: a commanded motion never leaves it, a target outside is skipped.
 struct Workspace {
-  Eigen::Vector3d min{-0.9, 0.3, -1.0};
-  Eigen::Vector3d max{0.7, 1.3, 0.3};
-  double min_reach = 0.3;
-  double max_reach = 1.5;
+  Eigen::Vector3d min{servo_keys::workspace::min.fallback.data()};
+  Eigen::Vector3d max{servo_keys::workspace::max.fallback.data()};
+  double min_reach = servo_keys::workspace::min_reach.fallback;
+  double max_reach = servo_keys::workspace::max_reach.fallback;
   bool contains(const Eigen::Vector3d& p, double margin = 0.0) const;
 };
 
 struct Gains {
-  double kp_lateral = 2.0;         // [1/s] on the metric centring error (eq. 6-25, 6-26)
-  double kd_lateral = 0.05;        // [s]
-  double kp_depth = 1.0;           // [1/s] on the depth error (eq. 6-27)
-  double kd_depth = 0.0;           // [s]
-  double derivative_filter = 0.5;  // low-pass weight of the newest error derivative, 0..1
+  double kp_lateral = servo_keys::gains::kp_lateral.fallback;         // [1/s] on the metric centring error (eq. 6-25, 6-26)
+  double kd_lateral = servo_keys::gains::kd_lateral.fallback;        // [s]
+  double kp_depth = servo_keys::gains::kp_depth.fallback;           // [1/s] on the depth error (eq. 6-27)
+  double kd_depth = servo_keys::gains::kd_depth.fallback;           // [s]
+  double derivative_filter = servo_keys::gains::derivative_filter.fallback;  // low-pass weight of the newest error derivative, 0..1
   // [m] advance no faster than the centring can bring the fruit within this
   // of the gripper axis by the time the gripper gets there (0: no bound)
-  double centring_tolerance = 0.005;
+  double centring_tolerance = servo_keys::gains::centring_tolerance.fallback;
   // [s] under IR guidance, centre on the fruit's mean position over this long
   // (0: on its newest position). A fruit swaying in the wind keeps moving
   // during the gripper's blind close: from its mean it is at most one sway
   // amplitude away when the fingers meet, from where it was last seen up to
   // nearly two.
-  double sway_window = 2.5;
+  double sway_window = servo_keys::gains::sway_window.fallback;
   // orient_law thesis_pd: omega = kp_orient e + kd_orient de/dt on the angles of eq. 6-19, 6-20, 6-23 (eq. 6-24)
-  double kp_orient = 2.0;   // [1/s]
-  double kd_orient = 0.05;  // [s]
+  double kp_orient = servo_keys::gains::kp_orient.fallback;   // [1/s]
+  double kd_orient = servo_keys::gains::kd_orient.fallback;  // [s]
 };
 
 struct Timeouts {
-  double select = 3.0;        // wait for a fresh fixed-camera view
-  double motion = 20.0;       // any pose-goal motion (orient, detach, drop, return, home)
-  double stall = 2.0;         // a pose-goal motion that gets no closer to its goal this long is blocked
-  double acquire = 3.0;       // fruit must appear in the hand camera after orienting
-  double lost = 0.3;          // no hand measurement this long -> hold and re-acquire
-  double reacquire = 2.0;     // ... and give the fruit up (LOST) after this long
-  double approach = 30.0;     // whole visual approach
-  double ir_approach = 8.0;   // one IR-guided attempt
-  double grasp = 3.0;         // gripper must report holding / closed
-  double release = 3.0;       // gripper must report open
-  double robot_state = 0.25;  // robot state watchdog while running
-  double ir_stale = 0.3;      // IR reading older than this: do not advance
+  double select = servo_keys::timeouts_s::select.fallback;        // wait for a fresh fixed-camera view
+  double motion = servo_keys::timeouts_s::motion.fallback;       // any pose-goal motion (orient, detach, drop, return, home)
+  double stall = servo_keys::timeouts_s::stall.fallback;         // a pose-goal motion that gets no closer to its goal this long is blocked
+  double acquire = servo_keys::timeouts_s::acquire.fallback;       // fruit must appear in the hand camera after orienting
+  double lost = servo_keys::timeouts_s::lost.fallback;          // no hand measurement this long -> hold and re-acquire
+  double reacquire = servo_keys::timeouts_s::reacquire.fallback;     // ... and give the fruit up (LOST) after this long
+  double approach = servo_keys::timeouts_s::approach.fallback;     // whole visual approach
+  double ir_approach = servo_keys::timeouts_s::ir_approach.fallback;   // one IR-guided attempt
+  double grasp = servo_keys::timeouts_s::grasp.fallback;         // gripper must report holding / closed
+  double release = servo_keys::timeouts_s::release.fallback;       // gripper must report open
+  double robot_state = servo_keys::timeouts_s::robot_state.fallback;  // robot state watchdog while running
+  double ir_stale = servo_keys::timeouts_s::ir_stale.fallback;      // IR reading older than this: do not advance
 };
 
 struct ServoConfig {
-  double tick_period_s = 0.02;        // command rate (50 Hz)
-  double status_period_s = 1.0;       // periodic HARVEST_STATUS
-  double validity_s = 0.1;            // validity window of every robot command
+  double tick_period_s = servo_keys::tick_period_s.fallback;        // command rate (50 Hz)
+  double status_period_s = servo_keys::status_period_s.fallback;       // periodic HARVEST_STATUS
+  double validity_s = servo_keys::validity_s.fallback;            // validity window of every robot command
   // From the robot's envelope (config/arm/envelope.yaml); the defaults are its values.
   double max_linear_speed = 0.381;    // [m/s] thesis 15 in/s
   double max_angular_speed = 1.5708;  // [rad/s] thesis: PID2 (pi/2) in HarvestStep4/5
   double max_linear_accel = 1.0;      // [m/s^2]
   double max_angular_accel = 3.0;     // [rad/s^2]
 
-  double ir_switch_distance = 0.4572;  // [m] thesis 18 in: switch to IR guidance
-  double ir_approach_speed = 0.381;    // [m/s] fastest forward speed under IR guidance ...
-  double ir_braking_decel = 0.8;       // [m/s^2] ... braking so it would stop at the grasp range ...
-  double ir_min_speed = 0.04;          // [m/s] ... but never below this
-  double ir_grasp_range = 0.015;       // [m] IR range at or below which the fruit is inside
-  double ir_max_travel = 0.6;          // [m] beyond the switch point before backing off
-  double ir_overshoot = 0.05;          // [m] ... or past the estimated fruit centre by this much
+  double ir_switch_distance = servo_keys::ir_switch_distance.fallback;  // [m] thesis 18 in: switch to IR guidance
+  double ir_approach_speed = servo_keys::ir_approach_speed.fallback;    // [m/s] fastest forward speed under IR guidance ...
+  double ir_braking_decel = servo_keys::ir_braking_decel.fallback;       // [m/s^2] ... braking so it would stop at the grasp range ...
+  double ir_min_speed = servo_keys::ir_min_speed.fallback;          // [m/s] ... but never below this
+  double ir_grasp_range = servo_keys::ir_grasp_range.fallback;       // [m] IR range at or below which the fruit is inside
+  double ir_max_travel = servo_keys::ir_max_travel.fallback;          // [m] beyond the switch point before backing off
+  double ir_overshoot = servo_keys::ir_overshoot.fallback;          // [m] ... or past the estimated fruit centre by this much
   // [m] > 0: an IR grasp reading counts only with the triangulated fruit
   // centre no farther ahead (a leaf in front of it); 0: off
-  double ir_vision_agreement = 0.07;
+  double ir_vision_agreement = servo_keys::ir_vision_agreement.fallback;
   // [m] a fruit in front of the one aimed at, filling the hand image when the
   // IR reads the grasp range, is closed on only with its centre this near the
   // gripper axis; farther off, the attempt is given up (it would be knocked off)
-  double front_fruit_tolerance = 0.015;
+  double front_fruit_tolerance = servo_keys::front_fruit_tolerance.fallback;
   // [m] the arm goes on this far along the tool axis (at ir_min_speed) while
   // the gripper closes, then stops (0: stops at once, as the thesis does)
-  double grasp_advance = 0.015;
+  double grasp_advance = servo_keys::grasp_advance.fallback;
   // A reading within ir_fold_near above the grasp range followed by one
   // ir_fold_jump farther is the sensor folding back (the fruit is inside).
-  double ir_fold_near = 0.02;         // [m]
-  double ir_fold_jump = 0.03;         // [m]
-  double ir_progress_step = 0.005;    // [m] under IR guidance, less tool motion than this for timeouts.stall: blocked
-  int ir_attempts = 2;                // IR approaches per fruit (thesis: retry once)
-  double orient_tolerance = 0.02;     // [rad] orientation reached
-  double position_tolerance = 0.005;  // [m] pose goal reached
-  double retreat_distance = 0.15;     // [m] pull back along the tool axis after a failure
-  double pull_distance = 0.10;        // [m] detach: pull back along the tool axis ...
-  double twist_angle = 0.5236;        // [rad] ... while twisting about it
-  bool release_at_detach = true;      // open the gripper where the pull ended (false: carry it to drop_pose first)
-  int max_attempts_per_fruit = 2;     // attempts per fruit in total; a failed one is retried after every untried one
-  double association_gate_px = 80.0;  // hand detection must lie this close to the predicted pixel
-  double min_ahead_of_home = 0.05;    // [m] a target must lie this far ahead of the tool at home, along its axis
+  double ir_fold_near = servo_keys::ir_fold_near.fallback;         // [m]
+  double ir_fold_jump = servo_keys::ir_fold_jump.fallback;         // [m]
+  double ir_progress_step = servo_keys::ir_progress_step.fallback;    // [m] under IR guidance, less tool motion than this for timeouts.stall: blocked
+  int ir_attempts = servo_keys::ir_attempts.fallback;                // IR approaches per fruit (thesis: retry once)
+  double orient_tolerance = servo_keys::orient_tolerance.fallback;     // [rad] orientation reached
+  double position_tolerance = servo_keys::position_tolerance.fallback;  // [m] pose goal reached
+  double retreat_distance = servo_keys::retreat_distance.fallback;     // [m] pull back along the tool axis after a failure
+  double pull_distance = servo_keys::pull_distance.fallback;        // [m] detach: pull back along the tool axis ...
+  double twist_angle = servo_keys::twist_angle.fallback;        // [rad] ... while twisting about it
+  bool release_at_detach = servo_keys::release_at_detach.fallback;      // open the gripper where the pull ended (false: carry it to drop_pose first)
+  int max_attempts_per_fruit = servo_keys::max_attempts_per_fruit.fallback;     // attempts per fruit in total; a failed one is retried after every untried one
+  double association_gate_px = servo_keys::association_gate_px.fallback;  // hand detection must lie this close to the predicted pixel
+  double min_ahead_of_home = servo_keys::min_ahead_of_home.fallback;    // [m] a target must lie this far ahead of the tool at home, along its axis
   // A fruit more than max_aim_angle off the gripper axis at home, or one the
   // arm cannot turn to there, is aimed at from a viewpoint view_distance
   // short of it, the home axis turned view_angle toward it: the arm has no
   // joint solution for a wide turn at home.
-  double max_aim_angle = 1.15;  // [rad]
-  double view_angle = 0.5;      // [rad] 0: always aim from home (the thesis)
-  double view_distance = 0.5;   // [m]
+  double max_aim_angle = servo_keys::max_aim_angle.fallback;  // [rad]
+  double view_angle = servo_keys::view_angle.fallback;      // [rad] 0: always aim from home (the thesis)
+  double view_distance = servo_keys::view_distance.fallback;   // [m]
   // The camera-in-hand's ray through the fruit crossed with the fixed
   // camera's gives its position without the apparent size, which a leaf
   // cutting the fruit falsifies. Used when the rays pass within
   // triangulation_gap and cross at min_triangulation_angle or more;
   // triangulation_gap 0: the size alone (the thesis's eq. 6-15).
-  double triangulation_gap = 0.06;       // [m]
-  double min_triangulation_angle = 0.2;  // [rad]
-  double same_fruit_distance = 0.05;     // [m] a fixed-camera target this close to a given-up one is that fruit
-  double same_sight_angle = 0.02;        // [rad] ... or, with a doubtful depth, its line of sight this close to one
-  double reused_id_distance = 0.15;      // [m] a finished id seen this far from where it finished is another fruit
+  double triangulation_gap = servo_keys::triangulation_gap.fallback;       // [m]
+  double min_triangulation_angle = servo_keys::min_triangulation_angle.fallback;  // [rad]
+  double same_fruit_distance = servo_keys::same_fruit_distance.fallback;     // [m] a fixed-camera target this close to a given-up one is that fruit
+  double same_sight_angle = servo_keys::same_sight_angle.fallback;        // [rad] ... or, with a doubtful depth, its line of sight this close to one
+  double reused_id_distance = servo_keys::reused_id_distance.fallback;      // [m] a finished id seen this far from where it finished is another fruit
   // A size-based hand estimate agrees with the rays' crossing within
   // size_agreement of the range (at least size_agreement_min): the hand
   // depth's own error is about 10 % rms, a leaf-cut fruit's a factor of 1.5.
-  double size_agreement = 0.3;
-  double size_agreement_min = 0.1;  // [m]
+  double size_agreement = servo_keys::size_agreement.fallback;
+  double size_agreement_min = servo_keys::size_agreement_min.fallback;  // [m]
   // A hand detection at least fills_view of the image height fills the view:
   // no depth from its size; and, front_fruit_size_ratio times the size the
   // current fruit should have and covering the image centre, it is a nearer
   // fruit in front of it.
-  double fills_view = 0.8;
-  double front_fruit_size_ratio = 1.5;
-  int whole_fruit_border_px = 2;  // [px] a detection this near the image border is cut by it: no depth from its size
+  double fills_view = servo_keys::fills_view.fallback;
+  double front_fruit_size_ratio = servo_keys::front_fruit_size_ratio.fallback;
+  int whole_fruit_border_px = servo_keys::whole_fruit_border_px.fallback;  // [px] a detection this near the image border is cut by it: no depth from its size
   // A pose-goal motion progresses by getting goal_progress_step or
   // goal_progress_angle nearer its goal (timeouts.stall without: blocked).
-  double goal_progress_step = 0.002;  // [m]
-  double goal_progress_angle = 0.01;  // [rad]
+  double goal_progress_step = servo_keys::goal_progress_step.fallback;  // [m]
+  double goal_progress_angle = servo_keys::goal_progress_angle.fallback;  // [rad]
   // An ORIENT blocked with the estimate this far (share of each image side)
   // inside the hand image goes on to ACQUIRE from where it stopped.
-  double in_view_margin = 0.2;
-  double sight_aim_margin = 0.07;  // [rad] aiming along a line of sight: the hand camera's half field of view less this
+  double in_view_margin = servo_keys::in_view_margin.fallback;
+  double sight_aim_margin = servo_keys::sight_aim_margin.fallback;  // [rad] aiming along a line of sight: the hand camera's half field of view less this
 
   Eigen::Isometry3d home_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d drop_pose = Eigen::Isometry3d::Identity();
@@ -148,16 +240,17 @@ struct ServoConfig {
   Gains gains;
   Timeouts timeouts;
   geometry::CameraModel hand_camera = kDefaultHandCamera;
-  std::string approach_mode = "reconstruction";  // pluggable approach strategy (approach.hpp)
+  std::string approach_mode{servo_keys::approach_mode.fallback};  // pluggable approach strategy (approach.hpp)
   // ORIENT in place: "pose_goal" (a pose goal the robot link runs along a
   // smooth path) or "thesis_pd" (the thesis's PD law on the aim angles,
   // eq. 6-24, as tool twists, also holding the roll about the gripper axis
   // at the home pose's). Viewpoints are always reached by a pose goal.
-  std::string orient_law = "pose_goal";
+  std::string orient_law{servo_keys::orient_law.fallback};
 
   // Reads the `servo` section layout documented in docs/servo-controller.md.
   // Throws config::Error (bad value, home/drop pose outside the workspace).
   static ServoConfig from_yaml(const config::Node& node);
+  static std::vector<config::Section> schema();
 };
 
 }  // namespace harvest::servo

@@ -4,6 +4,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "config/schema.hpp"
 #include "kinematics/chain.hpp"
 #include "kinematics/diff_ik.hpp"
 #include "sim/scene.hpp"
@@ -13,15 +14,16 @@
 namespace harvest::sim {
 
 DevicesConfig DevicesConfig::from_config(const config::Node& n) {
+  namespace k = devices_keys;
   DevicesConfig c;
-  const auto path = n.file_path("drives_config");
+  const auto path = n.get(k::drives_config);
   c.drives_config_path = path.string();
   auto doc = config::Document::load_file(path);
   try {
     // The same reader as harvest-sim-drives, so the simulator's drives are
     // exactly the ones that process would simulate.
     const simdrive::SimDrivesConfig drives = simdrive::SimDrivesConfig::from_config(doc.root());
-    c.model = kinematics::ArmModel::load(doc.root().file_path("arm_model", "k1207i.yaml").string());
+    c.model = kinematics::ArmModel::load(doc.root().get(simdrive::sim_drives_keys::arm_model).string());
     c.drives = drives.drives;
     c.drive_step_us = drives.step_us;
     c.bus = drives.bus;
@@ -29,16 +31,24 @@ DevicesConfig DevicesConfig::from_config(const config::Node& n) {
   } catch (const config::Error& e) {
     n.fail("drives_config", std::string("a valid simulated drives file: ") + e.what());
   }
-  c.bus = canopen::bus_from_config(n, "bus", c.bus);
+  c.bus = canopen::bus_from_config(n, k::bus, c.bus);
   const auto b = n.child("board");
-  c.board_host = b.get<std::string>("host", c.board_host);
-  c.board_port = b.get<int>("port", c.board_port, {1, 65535});
-  c.board_service_us = b.get<int>("service_period_ms", 5, {1, 100}) * 1000;
-  c.board.ir_rate_hz = b.get<double>("ir_rate_hz", c.board.ir_rate_hz, {1.0, 2000.0});
-  c.board.grip_rate_hz = b.get<double>("grip_rate_hz", c.board.grip_rate_hz, {1.0, 1000.0});
-  c.board.default_force_n = b.get<double>("default_force_n", c.board.default_force_n, {0.0, 1000.0});
-  c.board.firmware = b.get<std::string>("firmware", "harvest-sim-1");
+  c.board_host = b.get(k::board_host);
+  c.board_port = b.get(k::board_port);
+  c.board_service_us = b.get(k::service_period_ms) * 1000;
+  c.board.ir_rate_hz = b.get(endeffector::board_keys::ir_rate_hz);
+  c.board.grip_rate_hz = b.get(endeffector::board_keys::grip_rate_hz);
+  c.board.default_force_n = b.get(endeffector::board_keys::default_force_n);
+  c.board.firmware = b.get(k::board_firmware);
   return c;
+}
+
+std::vector<config::Section> DevicesConfig::schema(const std::string& path, const std::string& where) {
+  namespace k = devices_keys;
+  namespace bk = endeffector::board_keys;
+  return {config::section(path, where, k::drives_config, k::bus),
+          config::section(path + ".board", where, k::board_host, k::board_port, k::service_period_ms, bk::ir_rate_hz,
+                          bk::grip_rate_hz, bk::default_force_n, k::board_firmware)};
 }
 
 Placement to_placement(const Eigen::Isometry3d& t) { return {t.linear(), t.translation()}; }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "can/can_bus.hpp"
+#include "config/schema.hpp"
 #include "config/config.hpp"
 #include "endeffector/board_emulator.hpp"
 #include "kinematics/arm_model.hpp"
@@ -23,6 +24,22 @@
 #include "simdrive/sim_drive.hpp"
 
 namespace harvest::sim {
+
+// The simulator's `devices` keys (hardware: devices); `board` takes the
+// emulator's endeffector::board_keys too.
+namespace devices_keys {
+using config::Key;
+inline constexpr Key<config::Path> drives_config{.name = "drives_config",
+                                                 .doc = "the file harvest-sim-drives reads (config/arm/sim_drives.yaml)",
+                                                 .required = true};
+inline constexpr Key<std::string> bus{.name = "bus", .doc = "the CAN bus of the simulated drives (docs/can.md)",
+                                      .derived = "the drives file's bus"};
+inline constexpr Key<std::string> board_host{"host", "127.0.0.1", {}, "", "the board emulator listens here (TCP)"};
+inline constexpr Key<int> board_port{"port", 4001, {1, 65535}, "", "... on this port, as ser2net serves the real one"};
+inline constexpr Key<int> service_period_ms{"service_period_ms", 5, {1, 100}, "ms", "the board's service period"};
+inline constexpr Key<std::string> board_firmware{"firmware", "harvest-sim-1", {}, "",
+                                                 "firmware version the board reports"};
+}  // namespace devices_keys
 
 struct DevicesConfig {
   // The CAN bus spec; by default the one in the drives configuration.
@@ -34,12 +51,13 @@ struct DevicesConfig {
   std::vector<simdrive::SimDriveConfig> drives;
   int64_t drive_step_us = 1000;
   // The end-effector board on TCP, as ser2net serves the real one.
-  std::string board_host = "127.0.0.1";
-  int board_port = 4001;
-  int64_t board_service_us = 5000;
+  std::string board_host{devices_keys::board_host.fallback};
+  int board_port = devices_keys::board_port.fallback;
+  int64_t board_service_us = devices_keys::service_period_ms.fallback * 1000;
   endeffector::EmulatorConfig board;
 
   static DevicesConfig from_config(const config::Node& node);
+  static std::vector<config::Section> schema(const std::string& path, const std::string& where);
 };
 
 // Placement <-> Isometry3d.

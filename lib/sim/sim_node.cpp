@@ -51,24 +51,35 @@ bool counts(const Fruit& f, float visible_fraction) { return f.reachable && visi
 }  // namespace
 
 SimConfig SimConfig::from_config(const config::Node& n) {
+  namespace k = sim_keys;
   SimConfig c;
-  c.scenario_path = n.file_path("scenario").string();
-  c.run = n.get<int>("run", 0, {0, 100000});
-  c.seed = n.get<int64_t>("seed", -1, {-1, std::numeric_limits<int64_t>::max()});
-  c.hardware = n.choice("hardware", c.hardware, {"direct", "devices"});
+  c.scenario_path = n.get(k::scenario).string();
+  c.run = n.get(k::run);
+  c.seed = n.get(k::seed);
+  c.hardware = n.get(k::hardware);
   if (c.hardware == "devices" || n.has("devices")) c.devices = DevicesConfig::from_config(n.child("devices"));
-  const auto hand_eye = n.file_path("hand_eye", "config/cameras/hand_eye.yaml");
+  const auto hand_eye = n.get(k::hand_eye);
   try {
     c.reported_hand_eye = to_placement(geometry::load_transform_file(hand_eye, geometry::Handedness::kProper));
   } catch (const std::exception& e) {
     n.fail("hand_eye", std::string("a readable hand-eye calibration (") + e.what() + ")");
   }
-  c.physics_rate_hz = n.get<double>("physics_rate_hz", c.physics_rate_hz, {10.0, 2000.0});
-  c.robot_state_rate_hz = n.get<double>("robot_state_rate_hz", c.robot_state_rate_hz, {1.0, 1000.0});
-  c.truth_rate_hz = n.get<double>("truth_rate_hz", c.truth_rate_hz, {0.1, 100.0});
-  c.stop_when_done = n.get<bool>("stop_when_done", c.stop_when_done);
-  c.done_grace_s = n.get<double>("done_grace_s", c.done_grace_s, {0.0, 600.0});
+  c.physics_rate_hz = n.get(k::physics_rate_hz);
+  c.robot_state_rate_hz = n.get(k::robot_state_rate_hz);
+  c.truth_rate_hz = n.get(k::truth_rate_hz);
+  c.stop_when_done = n.get(k::stop_when_done);
+  c.done_grace_s = n.get(k::done_grace_s);
   return c;
+}
+
+std::vector<config::Section> SimConfig::schema() {
+  namespace k = sim_keys;
+  const std::string where = "harvest-sim, config/sim/sim*.yaml (docs/simulator.md).";
+  std::vector<config::Section> out{config::section("sim", where, k::scenario, k::run, k::seed, k::hardware, k::hand_eye,
+                                                   k::physics_rate_hz, k::robot_state_rate_hz, k::truth_rate_hz,
+                                                   k::stop_when_done, k::done_grace_s)};
+  for (auto& s : DevicesConfig::schema("sim.devices", where)) out.push_back(std::move(s));
+  return out;
 }
 
 SimNode::SimNode(SimConfig config, Scenario scenario)

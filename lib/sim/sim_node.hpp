@@ -14,6 +14,7 @@
 // publish ROBOT_STATE, IR_RANGE and GRIPPER_STATE (see sim/devices.hpp).
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,23 +33,45 @@ namespace harvest::sim {
 
 inline constexpr const char* kSimTruthChannel = "SIM_TRUTH";  // sim_truth_t
 
+// The keys of config/sim/sim*.yaml (docs/simulator.md).
+namespace sim_keys {
+using config::Key;
+inline constexpr Key<config::Path> scenario{.name = "scenario", .doc = "the scenario file (config/scenarios/)",
+                                            .required = true};
+inline constexpr Key<int> run{"run", 0, {0, 100000}, "", "which of the scenario's runs"};
+inline constexpr Key<int64_t> seed{"seed", -1, {-1, std::numeric_limits<int64_t>::max()}, "",
+                                   ">= 0: draw the scenario with this seed instead of its own (tree benchmarks)"};
+inline constexpr config::Choice hardware{"hardware", "direct", {"direct", "devices"},
+                                         "the arm and board directly, or as drives on a CAN bus and a TCP board"};
+inline constexpr Key<config::Path> hand_eye{"hand_eye", "config/cameras/hand_eye.yaml", {}, "",
+                                            "hardware direct: the camera-in-hand calibration for ROBOT_STATE"};
+inline constexpr Key<double> physics_rate_hz{"physics_rate_hz", 100.0, {10.0, 2000.0}, "Hz", "physics steps"};
+inline constexpr Key<double> robot_state_rate_hz{"robot_state_rate_hz", 100.0, {1.0, 1000.0}, "Hz",
+                                                 "ROBOT_STATE published (hardware direct)"};
+inline constexpr Key<double> truth_rate_hz{"truth_rate_hz", 20.0, {0.1, 100.0}, "Hz", "SIM_TRUTH published"};
+inline constexpr Key<bool> stop_when_done{"stop_when_done", true, {}, "", "end the process when the run is over"};
+inline constexpr Key<double> done_grace_s{"done_grace_s", 2.0, {0.0, 600.0}, "s",
+                                          "keep running this long after the last fruit is decided"};
+}  // namespace sim_keys
+
 struct SimConfig {
   std::string scenario_path;
-  int run = 0;
-  int64_t seed = -1;  // >= 0: draw the scenario with this seed instead of its own (tree benchmarks)
-  std::string hardware = "direct";       // "direct" or "devices" (see docs/simulator.md)
+  int run = sim_keys::run.fallback;
+  int64_t seed = sim_keys::seed.fallback;  // >= 0: draw the scenario with this seed instead of its own
+  std::string hardware{sim_keys::hardware.fallback};  // see docs/simulator.md
   std::optional<DevicesConfig> devices;  // hardware "devices": drives, bus and board
   // Hardware "direct": the software's camera-in-hand calibration (the file the
   // robot link's arm model reads), for the camera pose in the ROBOT_STATE the
   // simulator publishes in the robot link's place.
   Placement reported_hand_eye;
-  double physics_rate_hz = 100.0;
-  double robot_state_rate_hz = 100.0;
-  double truth_rate_hz = 20.0;
-  bool stop_when_done = true;  // end the process when the run is over
-  double done_grace_s = 2.0;   // keep running this long after the last fruit is decided
+  double physics_rate_hz = sim_keys::physics_rate_hz.fallback;
+  double robot_state_rate_hz = sim_keys::robot_state_rate_hz.fallback;
+  double truth_rate_hz = sim_keys::truth_rate_hz.fallback;
+  bool stop_when_done = sim_keys::stop_when_done.fallback;  // end the process when the run is over
+  double done_grace_s = sim_keys::done_grace_s.fallback;    // after the last fruit is decided
 
   static SimConfig from_config(const config::Node& node);
+  static std::vector<config::Section> schema();
 };
 
 class SimNode final : public rt::Node {

@@ -16,9 +16,9 @@ std::vector<SimDriveConfig> sim_drive_configs(const kinematics::ArmModel& model,
   for (int i = 0; i < model.dof(); ++i) {
     const auto& d = drives[static_cast<std::size_t>(i)];
     SimDriveConfig c;
-    c.node_id = static_cast<uint8_t>(d.required<int>("node_id", {1, 127}));
-    c.counts_per_radian = d.required<double>("counts_per_radian");
-    c.zero_offset_counts = d.get<int>("zero_offset_counts", 0);
+    c.node_id = static_cast<uint8_t>(d.get(canopen::drive_keys::node_id));
+    c.counts_per_radian = d.get(canopen::drive_keys::counts_per_radian);
+    c.zero_offset_counts = d.get(canopen::drive_keys::zero_offset_counts);
     const auto& joint = model.joints[static_cast<std::size_t>(i)];
     c.max_acceleration = acceleration_margin * joint.max_acceleration;
     c.quick_stop_deceleration = quick_stop_factor * joint.max_acceleration;
@@ -29,18 +29,26 @@ std::vector<SimDriveConfig> sim_drive_configs(const kinematics::ArmModel& model,
 }
 
 SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
+  namespace k = sim_drives_keys;
   SimDrivesConfig c;
-  c.bus = canopen::bus_from_config(root, "bus", c.bus);
-  const auto model = kinematics::ArmModel::load(root.file_path("arm_model", "k1207i.yaml").string());
-  auto drives_doc = config::Document::load_file(root.file_path("drives_file", "drives_k1207i.yaml"));
-  const double margin = root.get<double>("acceleration_margin", 1.5, {1.0, 100.0});
-  const double qs = root.get<double>("quick_stop_deceleration_factor", 3.0, {1.0, 100.0});
+  c.bus = canopen::bus_from_config(root, canopen::kBusKey);
+  const auto model = kinematics::ArmModel::load(root.get(k::arm_model).string());
+  auto drives_doc = config::Document::load_file(root.get(k::drives_file));
+  const double margin = root.get(k::acceleration_margin);
+  const double qs = root.get(k::quick_stop_deceleration_factor);
   c.drives = sim_drive_configs(model, drives_doc.root(), margin, qs);
   drives_doc.check_unused();
-  c.step_us = root.get<int>("step_ms", 1, {1, 100}) * 1000;
-  const Micros sync_timeout = root.get<int>("sync_timeout_ms", 500, {0, 10000}) * 1000;
+  c.step_us = root.get(k::step_ms) * 1000;
+  const Micros sync_timeout = root.get(k::sync_timeout_ms) * 1000;
   for (auto& d : c.drives) d.sync_timeout_us = sync_timeout;
   return c;
+}
+
+std::vector<config::Section> SimDrivesConfig::schema() {
+  namespace k = sim_drives_keys;
+  return {config::section("sim_drives", "harvest-sim-drives, config/arm/sim_drives.yaml (docs/robot-link.md).",
+                          canopen::kBusKey, k::arm_model, k::drives_file, k::acceleration_margin,
+                          k::quick_stop_deceleration_factor, k::step_ms, k::sync_timeout_ms)};
 }
 
 SimDrivesNode::SimDrivesNode(SimDrivesConfig config) : rt::Node("sim_drives"), config_(std::move(config)) {}

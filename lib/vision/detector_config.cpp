@@ -3,6 +3,7 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 namespace harvest::vision {
 
@@ -30,13 +31,14 @@ DetectorConfig DetectorConfig::canopy() {
 }
 
 DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
-  const std::string mode = n.choice("mode", "canopy", {"thesis", "canopy", "learned"});
+  namespace k = detector_keys;
+  const std::string mode = n.get(k::mode);
   DetectorConfig c = mode == "thesis" ? thesis() : canopy();
   if (mode == "learned") {
     c.mode = Mode::learned;
-    c.learned.model = n.file_path("model", "config/vision/models/fruit_net.onnx");
-    c.learned.input_width = n.get("input_width", c.learned.input_width, {16, 4096});
-    c.learned.threshold = n.get("threshold", c.learned.threshold, {0.01, 1.0});
+    c.learned.model = n.get(learned_keys::model);
+    c.learned.input_width = n.get(learned_keys::input_width);
+    c.learned.threshold = n.get(learned_keys::threshold);
     // Load it now: a bad file is an error at start (and for --check-config), not at the first frame.
     try {
       LearnedDetector check(c.learned);
@@ -44,38 +46,50 @@ DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
       n.fail("model", std::string("a loadable fruit network (") + e.what() + ")");
     }
   }
-  const config::Range<double> any{-1000, 1000};
   auto& t = c.thresholds;
-  t.cr_min = n.get("cr_min", t.cr_min, any);
-  t.cr_max = n.get("cr_max", t.cr_max, any);
-  t.cg_min = n.get("cg_min", t.cg_min, any);
-  t.cg_max = n.get("cg_max", t.cg_max, any);
-  t.cb_min = n.get("cb_min", t.cb_min, any);
-  t.cb_max = n.get("cb_max", t.cb_max, any);
+  t.cr_min = n.get(threshold_keys::cr_min);
+  t.cr_max = n.get(threshold_keys::cr_max);
+  t.cg_min = n.get(threshold_keys::cg_min);
+  t.cg_max = n.get(threshold_keys::cg_max);
+  t.cb_min = n.get(threshold_keys::cb_min);
+  t.cb_max = n.get(threshold_keys::cb_max);
   if (t.cr_min > t.cr_max) n.fail("cr_max", "a value >= cr_min");
   if (t.cg_min > t.cg_max) n.fail("cg_max", "a value >= cg_min");
   if (t.cb_min > t.cb_max) n.fail("cb_max", "a value >= cb_min");
-  c.min_area_px = n.get<int64_t>("min_area_px", c.min_area_px, {0, 100'000'000});
-  c.fruit_diameter_m = n.get("fruit_diameter_m", c.fruit_diameter_m, {0.01, 0.5});
-  c.kr = n.get("kr", c.kr, {0.0, 1e6});
-  c.kd_per_m = n.get("kd_per_m", c.kd_per_m, {0.0, 1e6});
-  c.open_radius_px = n.get("open_radius_px", c.open_radius_px, {0, 50});
-  c.close_radius_px = n.get("close_radius_px", c.close_radius_px, {0, 50});
-  c.fill_holes = n.get("fill_holes", c.fill_holes);
-  c.split_touching = n.get("split_touching", c.split_touching);
-  c.split_min_radius_px = n.get("split_min_radius_px", c.split_min_radius_px, {0.5, 1000.0});
-  c.split_min_peak_ratio = n.get("split_min_peak_ratio", c.split_min_peak_ratio, {0.0, 1.0});
-  c.peel_to_circle = n.get("peel_to_circle", c.peel_to_circle);
-  c.merge_fragments = n.get("merge_fragments", c.merge_fragments);
-  c.merge_max_gap_ratio = n.get("merge_max_gap_ratio", c.merge_max_gap_ratio, {0.0, 10.0});
-  c.sky_cb_min = n.get("sky_cb_min", c.sky_cb_min, {-1000.0, 1000.0});
-  c.reject_shapes = n.get("reject_shapes", c.reject_shapes);
-  c.min_roundness = n.get("min_roundness", c.min_roundness, {0.0, 1.0});
-  c.min_solidity = n.get("min_solidity", c.min_solidity, {0.0, 1.0});
-  c.max_aspect_ratio = n.get("max_aspect_ratio", c.max_aspect_ratio, {1.0, 100.0});
-  c.circle_fit = n.get("circle_fit", c.circle_fit);
-  c.min_visible_fraction = n.get("min_visible_fraction", c.min_visible_fraction, {0.0, 1.0});
+  c.min_area_px = n.get(k::min_area_px);
+  c.fruit_diameter_m = n.get(k::fruit_diameter_m);
+  c.kr = n.get(k::kr);
+  c.kd_per_m = n.get(k::kd_per_m);
+  // The switches' defaults are the mode's preset.
+  c.open_radius_px = n.get(k::open_radius_px, c.open_radius_px);
+  c.close_radius_px = n.get(k::close_radius_px, c.close_radius_px);
+  c.fill_holes = n.get(k::fill_holes, c.fill_holes);
+  c.split_touching = n.get(k::split_touching, c.split_touching);
+  c.split_min_radius_px = n.get(k::split_min_radius_px);
+  c.split_min_peak_ratio = n.get(k::split_min_peak_ratio);
+  c.peel_to_circle = n.get(k::peel_to_circle, c.peel_to_circle);
+  c.merge_fragments = n.get(k::merge_fragments, c.merge_fragments);
+  c.merge_max_gap_ratio = n.get(k::merge_max_gap_ratio);
+  c.sky_cb_min = n.get(k::sky_cb_min);
+  c.reject_shapes = n.get(k::reject_shapes, c.reject_shapes);
+  c.min_roundness = n.get(k::min_roundness);
+  c.min_solidity = n.get(k::min_solidity);
+  c.max_aspect_ratio = n.get(k::max_aspect_ratio);
+  c.circle_fit = n.get(k::circle_fit, c.circle_fit);
+  c.min_visible_fraction = n.get(k::min_visible_fraction);
   return c;
+}
+
+config::Section DetectorConfig::schema(const std::string& path, const std::string& where) {
+  namespace k = detector_keys;
+  namespace t = threshold_keys;
+  namespace l = learned_keys;
+  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, t::cr_min, t::cr_max, t::cg_min,
+                         t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr, k::kd_per_m,
+                         k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching,
+                         k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments,
+                         k::merge_max_gap_ratio, k::sky_cb_min, k::reject_shapes, k::min_roundness, k::min_solidity,
+                         k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
 }
 
 }  // namespace harvest::vision

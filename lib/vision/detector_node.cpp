@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "camera/image_codec.hpp"
+#include "config/schema.hpp"
 #include "runtime/channels.hpp"
 #include "vision/depth.hpp"
 
@@ -13,15 +14,25 @@ using camera::DecodedImage;
 using camera::image_roi;
 
 DetectorNodeConfig DetectorNodeConfig::from_yaml(const config::Node& n) {
+  namespace k = detector_node_keys;
   DetectorNodeConfig c;
-  c.camera = n.choice("camera", c.camera, {"fixed", "hand"});
+  c.camera = n.get(k::camera);
   c.input_channel =
-      n.get<std::string>("input_channel", c.camera == "hand" ? channels::kCameraHand : channels::kCameraFixed);
+      n.get(k::input_channel, std::string(c.camera == "hand" ? channels::kCameraHand : channels::kCameraFixed));
   c.output_channel =
-      n.get<std::string>("output_channel", c.camera == "hand" ? channels::kFruitHand : channels::kFruitFixed);
-  c.calibration = geometry::CameraModel::from_config(n, "calibration", "config/cameras/" + c.camera + ".yaml");
+      n.get(k::output_channel, std::string(c.camera == "hand" ? channels::kFruitHand : channels::kFruitFixed));
+  c.calibration = geometry::CameraModel::from_config(n, k::calibration, "config/cameras/" + c.camera + ".yaml");
   c.detector = DetectorConfig::from_yaml(n.child("detector"));
   return c;
+}
+
+std::vector<config::Section> DetectorNodeConfig::schema() {
+  namespace k = detector_node_keys;
+  const std::string where =
+      "harvest-fruit-detector, config/vision/detector-*.yaml (docs/perception.md); the same `detector` mapping "
+      "in the simulator's and offline tools' files.";
+  return {config::section("fruit_detector", where, k::camera, k::input_channel, k::output_channel, k::calibration),
+          DetectorConfig::schema("fruit_detector.detector", where)};
 }
 
 fruit_detections_t detect_image(const image_t& image, const DetectorNodeConfig& config, FruitDetector& detector) {

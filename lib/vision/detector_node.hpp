@@ -6,6 +6,7 @@
 #include <string>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "geometry/camera_model.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/image_t.hpp"
@@ -16,12 +17,25 @@
 
 namespace harvest::vision {
 
+namespace detector_node_keys {
+using config::Key;
+inline constexpr config::Choice camera{"camera", "fixed", {"fixed", "hand"}, "which camera's images it reads"};
+inline constexpr Key<std::string> input_channel{
+    .name = "input_channel", .doc = "images in", .derived = "CAMERA_FIXED or CAMERA_HAND (by camera)"};
+inline constexpr Key<std::string> output_channel{
+    .name = "output_channel", .doc = "detections out", .derived = "FRUIT_FIXED or FRUIT_HAND (by camera)"};
+inline constexpr Key<config::Path> calibration{.name = "calibration",
+                                               .doc = "the camera's intrinsic calibration",
+                                               .derived = "config/cameras/CAMERA.yaml"};
+}  // namespace detector_node_keys
+
 struct DetectorNodeConfig {
-  std::string camera = "fixed";
+  std::string camera{detector_node_keys::camera.fallback};
   std::string input_channel, output_channel;  // default from `camera`
   geometry::CameraModel calibration;
   DetectorConfig detector;
   static DetectorNodeConfig from_yaml(const config::Node& node);
+  static std::vector<config::Section> schema();
 };
 
 // Pure function of the node: one image message -> its detections (sensor pixels).

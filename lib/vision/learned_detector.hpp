@@ -11,14 +11,27 @@
 #include <string>
 #include <vector>
 
+#include "config/key.hpp"
+
 namespace harvest::vision {
 
 struct Fruit;
 
+// The detector's keys of mode learned.
+namespace learned_keys {
+using config::Key;
+inline constexpr Key<config::Path> model{"model", "config/vision/models/fruit_net.onnx", {}, "",
+                                         "mode learned: the ONNX network (loaded at start)"};
+inline constexpr Key<int> input_width{"input_width", 320, {16, 4096}, "px",
+                                      "mode learned: frames are scaled to this width (the training scale)"};
+inline constexpr Key<double> threshold{"threshold", 0.3, {0.01, 1.0}, "",
+                                       "mode learned: heatmap peaks below this are not fruit"};
+}  // namespace learned_keys
+
 struct LearnedConfig {
   std::filesystem::path model;  // ONNX file
-  int input_width = 320;        // frames are scaled to this width (the training scale)
-  double threshold = 0.3;       // heatmap peaks below this are not fruit
+  int input_width = learned_keys::input_width.fallback;
+  double threshold = learned_keys::threshold.fallback;
 };
 
 class LearnedDetector {

@@ -21,16 +21,29 @@
 
 #include "geometry/camera_model.hpp"
 
+#include "config/key.hpp"
+
 namespace harvest::vision {
 
+// The reconstructor's `fruit` and `pixel_noise` keys.
+namespace fruit_keys {
+inline constexpr config::Key<double> diameter_mean_m{"diameter_mean_m", 0.0725, {0.01, 0.5}, "m",
+                                                     "mean fruit diameter D_o"};
+inline constexpr config::Key<double> diameter_std_m{"diameter_std_m", 0.003, {0.0, 0.1}, "m",
+                                                    "its standard deviation"};
+inline constexpr config::Key<double> centre_px{"centre_px", 1.0, {0.0, 100.0}, "px", "1 sigma of the centroid"};
+inline constexpr config::Key<double> diameter_px{"diameter_px", 1.0, {0.0, 100.0}, "px",
+                                                 "1 sigma of the apparent diameter"};
+}  // namespace fruit_keys
+
 struct FruitStatistics {
-  double diameter_mean_m = 0.0725;  // D_o
-  double diameter_std_m = 0.003;
+  double diameter_mean_m = fruit_keys::diameter_mean_m.fallback;  // D_o
+  double diameter_std_m = fruit_keys::diameter_std_m.fallback;
 };
 
 struct PixelNoise {
-  double centre_px = 1.0;    // 1 sigma of the centroid
-  double diameter_px = 1.0;  // 1 sigma of the apparent diameter
+  double centre_px = fruit_keys::centre_px.fallback;
+  double diameter_px = fruit_keys::diameter_px.fallback;
 };
 
 struct PointEstimate {

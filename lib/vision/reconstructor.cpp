@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "config/config.hpp"
+#include "config/schema.hpp"
 #include "geometry/pose_msg.hpp"
 #include "geometry/transform_file.hpp"
 
@@ -23,34 +24,46 @@ void fill_pose_estimate(target_t& t, const PointEstimate& cam, const PointEstima
 }  // namespace
 
 ReconstructorConfig ReconstructorConfig::from_yaml(const config::Node& n) {
+  namespace k = reconstructor_keys;
   ReconstructorConfig c;
   const config::Node fixed = n.child("camera_fixed");
-  c.fixed_camera = geometry::CameraModel::from_config(fixed, "calibration", "config/cameras/fixed.yaml");
+  c.fixed_camera = geometry::CameraModel::from_config(fixed, k::fixed_calibration);
   // The thesis's eq. 4-1 matrix has determinant -1 (its fixed camera frame
   // and base frame differ in handedness), and it is the contract.
-  const auto extrinsic = fixed.file_path("extrinsic", "config/cameras/fixed_extrinsic.yaml");
+  const auto extrinsic = fixed.get(k::extrinsic);
   try {
     c.fixed_extrinsic = geometry::load_transform_file(extrinsic, geometry::Handedness::kReflectionAllowed);
   } catch (const std::exception& e) {
     fixed.fail("extrinsic", std::string("a readable extrinsic calibration (") + e.what() + ")");
   }
-  c.fixed_extrinsic_sigma_m = fixed.get("extrinsic_sigma_m", c.fixed_extrinsic_sigma_m, {0.0, 1.0});
+  c.fixed_extrinsic_sigma_m = fixed.get(k::extrinsic_sigma_m);
   const config::Node hand = n.child("camera_hand");
-  c.hand_camera = geometry::CameraModel::from_config(hand, "calibration", "config/cameras/hand.yaml");
-  c.hand_pose_sigma_m = hand.get("pose_sigma_m", c.hand_pose_sigma_m, {0.0, 1.0});
-  c.max_state_gap_us = 1000 * hand.get<int64_t>("max_state_gap_ms", c.max_state_gap_us / 1000, {1, 10'000});
+  c.hand_camera = geometry::CameraModel::from_config(hand, k::hand_calibration);
+  c.hand_pose_sigma_m = hand.get(k::pose_sigma_m);
+  c.max_state_gap_us = 1000 * hand.get(k::max_state_gap_ms);
   const config::Node fruit = n.child("fruit");
-  c.fruit.diameter_mean_m = fruit.get("diameter_mean_m", c.fruit.diameter_mean_m, {0.01, 0.5});
-  c.fruit.diameter_std_m = fruit.get("diameter_std_m", c.fruit.diameter_std_m, {0.0, 0.1});
+  c.fruit.diameter_mean_m = fruit.get(fruit_keys::diameter_mean_m);
+  c.fruit.diameter_std_m = fruit.get(fruit_keys::diameter_std_m);
   const config::Node noise = n.child("pixel_noise");
-  c.noise.centre_px = noise.get("centre_px", c.noise.centre_px, {0.0, 100.0});
-  c.noise.diameter_px = noise.get("diameter_px", c.noise.diameter_px, {0.0, 100.0});
+  c.noise.centre_px = noise.get(fruit_keys::centre_px);
+  c.noise.diameter_px = noise.get(fruit_keys::diameter_px);
   const config::Node tracking = n.child("tracking");
-  c.track_gate_diameters = tracking.get("gate_diameters", c.track_gate_diameters, {0.01, 100.0});
-  c.track_max_missed = tracking.get("max_missed_frames", c.track_max_missed, {0, 100000});
-  c.association_gate_chi2 = tracking.get("association_gate_chi2", c.association_gate_chi2, {0.0, 1e6});
-  c.fixed_memory_us = 1'000'000 * tracking.get<int64_t>("fixed_memory_s", c.fixed_memory_us / 1'000'000, {0, 86400});
+  c.track_gate_diameters = tracking.get(k::gate_diameters);
+  c.track_max_missed = tracking.get(k::max_missed_frames);
+  c.association_gate_chi2 = tracking.get(k::association_gate_chi2);
+  c.fixed_memory_us = 1'000'000 * tracking.get(k::fixed_memory_s);
   return c;
+}
+
+std::vector<config::Section> ReconstructorConfig::schema() {
+  namespace k = reconstructor_keys;
+  const std::string where = "harvest-reconstructor, config/vision/reconstructor.yaml (docs/perception.md).";
+  return {config::section("reconstructor.camera_fixed", where, k::fixed_calibration, k::extrinsic, k::extrinsic_sigma_m),
+          config::section("reconstructor.camera_hand", where, k::hand_calibration, k::pose_sigma_m, k::max_state_gap_ms),
+          config::section("reconstructor.fruit", where, fruit_keys::diameter_mean_m, fruit_keys::diameter_std_m),
+          config::section("reconstructor.pixel_noise", where, fruit_keys::centre_px, fruit_keys::diameter_px),
+          config::section("reconstructor.tracking", where, k::gate_diameters, k::max_missed_frames,
+                          k::association_gate_chi2, k::fixed_memory_s)};
 }
 
 Reconstructor::Reconstructor(ReconstructorConfig config)

@@ -15,7 +15,9 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "config/schema.hpp"
 #include "geometry/camera_model.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/harvest_status_t.hpp"
@@ -33,21 +35,47 @@ namespace harvest::vision {
 
 inline constexpr int32_t kUnassociatedIdBase = 100000;
 
+namespace reconstructor_keys {
+using config::Key;
+using config::Path;
+inline constexpr Key<Path> fixed_calibration{"calibration", "config/cameras/fixed.yaml", {}, "",
+                                             "the fixed camera's intrinsic calibration"};
+inline constexpr Key<Path> extrinsic{"extrinsic", "config/cameras/fixed_extrinsic.yaml", {}, "",
+                                     "fixed camera -> base transform (the thesis's eq. 4-1 has determinant -1)"};
+inline constexpr Key<double> extrinsic_sigma_m{"extrinsic_sigma_m", 0.03, {0.0, 1.0}, "m",
+                                               "its calibration error, isotropic 1 sigma"};
+inline constexpr Key<Path> hand_calibration{"calibration", "config/cameras/hand.yaml", {}, "",
+                                            "the hand camera's intrinsic calibration"};
+inline constexpr Key<double> pose_sigma_m{"pose_sigma_m", 0.005, {0.0, 1.0}, "m",
+                                          "error of the hand camera's pose, isotropic 1 sigma"};
+inline constexpr Key<int64_t> max_state_gap_ms{"max_state_gap_ms", 100, {1, 10'000}, "ms",
+                                               "robot states around a hand image at most this far apart"};
+inline constexpr Key<double> gate_diameters{"gate_diameters", 1.0, {0.01, 100.0}, "",
+                                            "a detection within this many diameters continues a track"};
+inline constexpr Key<int> max_missed_frames{"max_missed_frames", 10, {0, 100000}, "",
+                                            "a track missed this many frames ends"};
+inline constexpr Key<double> association_gate_chi2{"association_gate_chi2", 11.34, {0.0, 1e6}, "",
+                                                   "hand-to-fixed association gate (99 % for 3 degrees of freedom)"};
+inline constexpr Key<int64_t> fixed_memory_s{"fixed_memory_s", 60, {0, 86400}, "s",
+                                             "keep a fixed-camera fruit this long after last seen"};
+}  // namespace reconstructor_keys
+
 struct ReconstructorConfig {
   geometry::CameraModel fixed_camera;
   Eigen::Isometry3d fixed_extrinsic = thesis_fixed_camera_extrinsic();  // camera -> base
-  double fixed_extrinsic_sigma_m = 0.03;                                // calibration error, isotropic 1 sigma
+  double fixed_extrinsic_sigma_m = reconstructor_keys::extrinsic_sigma_m.fallback;
   geometry::CameraModel hand_camera;
-  double hand_pose_sigma_m = 0.005;
-  int64_t max_state_gap_us = 100'000;  // robot states around an image at most this far apart
+  double hand_pose_sigma_m = reconstructor_keys::pose_sigma_m.fallback;
+  int64_t max_state_gap_us = reconstructor_keys::max_state_gap_ms.fallback * 1000;
   FruitStatistics fruit;
   PixelNoise noise;
-  double track_gate_diameters = 1.0;
-  int track_max_missed = 10;
-  double association_gate_chi2 = 11.34;  // 99 % for 3 degrees of freedom
-  int64_t fixed_memory_us = 60'000'000;  // keep a fixed-camera fruit this long after last seen
+  double track_gate_diameters = reconstructor_keys::gate_diameters.fallback;
+  int track_max_missed = reconstructor_keys::max_missed_frames.fallback;
+  double association_gate_chi2 = reconstructor_keys::association_gate_chi2.fallback;
+  int64_t fixed_memory_us = reconstructor_keys::fixed_memory_s.fallback * 1'000'000;
 
   static ReconstructorConfig from_yaml(const config::Node& node);
+  static std::vector<config::Section> schema();
 };
 
 class Reconstructor {

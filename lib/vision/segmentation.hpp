@@ -19,12 +19,26 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "config/key.hpp"
+
 namespace harvest::vision {
 
-struct ColorThresholds {  // closed ranges, thesis defaults (appendix B.1, "1/15/04")
-  double cr_min = 22, cr_max = 90;
-  double cg_min = -25, cg_max = 25;
-  double cb_min = -220, cb_max = -5;
+// The detector's colour-threshold keys: closed ranges, thesis defaults
+// (appendix B.1, "1/15/04").
+namespace threshold_keys {
+using config::Key;
+inline constexpr Key<double> cr_min{"cr_min", 22, {-1000, 1000}, "", "lowest Cr of a fruit pixel (thesis appendix B.1)"};
+inline constexpr Key<double> cr_max{"cr_max", 90, {-1000, 1000}, "", "highest Cr (at least cr_min)"};
+inline constexpr Key<double> cg_min{"cg_min", -25, {-1000, 1000}, "", "lowest Cg"};
+inline constexpr Key<double> cg_max{"cg_max", 25, {-1000, 1000}, "", "highest Cg (at least cg_min)"};
+inline constexpr Key<double> cb_min{"cb_min", -220, {-1000, 1000}, "", "lowest Cb"};
+inline constexpr Key<double> cb_max{"cb_max", -5, {-1000, 1000}, "", "highest Cb (at least cb_min)"};
+}  // namespace threshold_keys
+
+struct ColorThresholds {  // closed ranges
+  double cr_min = threshold_keys::cr_min.fallback, cr_max = threshold_keys::cr_max.fallback;
+  double cg_min = threshold_keys::cg_min.fallback, cg_max = threshold_keys::cg_max.fallback;
+  double cb_min = threshold_keys::cb_min.fallback, cb_max = threshold_keys::cb_max.fallback;
 };
 
 // Integer form of the thresholds (bounds on 1000 C); exact for any double bounds.

@@ -1,4 +1,5 @@
 #include "config/config.hpp"
+#include "config/schema.hpp"
 
 #include <gtest/gtest.h>
 
@@ -214,4 +215,68 @@ TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
   EXPECT_EQ(error_of([] { Document::load_file("config"); }), "config: a folder, not a configuration file");
   auto ok = Document::load_string("a: 1\n", "c.yaml");
   EXPECT_EQ(error_of([&] { ok.apply_override("a=\xff\xfe"); }), "--set override:1: not UTF-8 text");
+}
+
+// ---- declared keys (config::Key, Choice, Numbers) and the reference table ----
+
+namespace {
+using harvest::config::Choice;
+using harvest::config::Key;
+using harvest::config::Numbers;
+constexpr Key<double> kSpeed{"max_speed", 0.381, {0.01, 2.0}, "m/s", "Largest tool speed"};
+constexpr Key<int> kCount{"count", 3, {1, 10}, "", "How many"};
+constexpr Key<bool> kOn{"enabled", true, {}, "", "On or off"};
+constexpr Key<std::string> kName{"name", "fixed", {}, "", "A name"};
+constexpr Key<std::string> kPort{.name = "port", .doc = "Serial port", .required = true};
+constexpr Choice kMode{"mode", "canopy", {"thesis", "canopy", "learned"}, "Detector"};
+constexpr Numbers kHome{"home", 3, {1.0, 2.5, -3.0}, "m", "Home position"};
+constexpr Numbers kAny{"fruit", 0, {}, "", "Fruit indices"};
+constexpr Numbers kTable{.name = "table", .size = 2, .doc = "Two values", .required = true};
+}  // namespace
+
+TEST(ConfigKeys, AbsentKeysTakeTheDeclaredDefaultsAndWriteThemBack) {
+  auto doc = Document::load_string("table: [1, 2]\nport: /dev/ttyUSB0\n", "k.yaml");
+  const auto root = doc.root();
+  EXPECT_DOUBLE_EQ(root.get(kSpeed), 0.381);
+  EXPECT_EQ(root.get(kCount), 3);
+  EXPECT_TRUE(root.get(kOn));
+  EXPECT_EQ(root.get(kName), "fixed");
+  EXPECT_EQ(root.get(kPort), "/dev/ttyUSB0");
+  EXPECT_EQ(root.get(kMode), "canopy");
+  EXPECT_EQ(root.get(kHome), (std::vector<double>{1.0, 2.5, -3.0}));
+  EXPECT_TRUE(root.get(kAny).empty());
+  EXPECT_EQ(root.get(kTable), (std::vector<double>{1, 2}));
+  EXPECT_NO_THROW(doc.check_unused());
+  const auto again = Document::load_string(doc.emit(), "again.yaml");
+  EXPECT_DOUBLE_EQ(again.root().required<double>("max_speed"), 0.381);
+  EXPECT_EQ(again.root().required<std::string>("mode"), "canopy");
+  EXPECT_EQ(again.root().numbers("home", 3), (std::vector<double>{1.0, 2.5, -3.0}));
+}
+
+TEST(ConfigKeys, ValuesAreCheckedAgainstTheDeclaration) {
+  auto doc = Document::load_string("max_speed: 3\ncount: 0\nmode: deep\nhome: [1, 2]\n", "k.yaml");
+  const auto root = doc.root();
+  EXPECT_NE(error_of([&] { root.get(kSpeed); }).find("k.yaml: max_speed: expected a number in [0.010000, 2.000000], got 3"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { root.get(kCount); }).find("count: expected an integer in [1, 10], got 0"), std::string::npos);
+  EXPECT_NE(error_of([&] { root.get(kMode); }).find("mode: expected one of {thesis, canopy, learned}, got 'deep'"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { root.get(kHome); }).find("home: expected a list of 3 numbers, got 2"), std::string::npos);
+  EXPECT_NE(error_of([&] { root.get(kPort); }).find("port: expected a required value"), std::string::npos);
+  EXPECT_NE(error_of([&] { root.get(kTable); }).find("table: expected a required list of numbers"), std::string::npos);
+}
+
+TEST(ConfigKeys, TheReferenceTableShowsEachDeclaration) {
+  using harvest::config::section;
+  const auto md = harvest::config::reference_markdown(
+      {section("arm.limits", "config/arm/robot_link.yaml", kSpeed, kCount, kOn, kPort, kMode, kHome, kAny, kTable)});
+  EXPECT_NE(md.find("## `arm.limits`\n\nconfig/arm/robot_link.yaml\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `max_speed` | number | `0.381` | [0.01, 2] | m/s | Largest tool speed |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `count` | integer | `3` | [1, 10] |  | How many |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `enabled` | bool | `true` |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `port` | string | `required` |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `mode` | choice | `canopy` | one of thesis, canopy, learned |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `home` | 3 numbers | `[1, 2.5, -3]` |  | m |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `fruit` | numbers | `[]` |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `table` | 2 numbers | `required` |"), std::string::npos) << md;
 }

@@ -63,7 +63,7 @@ TEST(Envelope, AMisspeltKeyInTheFileIsRefusedNamingIt) {
   std::ofstream(dir / "envelope.yaml") << kWhole << "max_linear_sped: 0.2\n";
   const auto root = config::Document::load_string("envelope: " + (dir / "envelope.yaml").string());
   try {
-    Envelope::from_config(root.root(), "envelope", "unused.yaml");
+    Envelope::from_config(root.root(), {"envelope", "unused.yaml"});
     FAIL() << "accepted";
   } catch (const config::Error& e) {
     const std::string what = e.what();
