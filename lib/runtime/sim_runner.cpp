@@ -44,4 +44,13 @@ void SimRunner::run_until(Micros t) {
   clock_.set(std::max(clock_.now(), t));
 }
 
+void SimRunner::poll() {
+  const auto watched = watched_;  // a callback may unwatch (a link closing)
+  for (const auto& [fd, on_readable] : watched) {
+    if (watched_.count(fd) == 0) continue;
+    on_readable();
+    drain();
+  }
+}
+
 }  // namespace harvest::rt
