@@ -23,14 +23,15 @@
 #include <vector>
 
 #include "runtime/clock.hpp"
-#include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
+#include "runtime/logical_time_runner.hpp"
 
 namespace harvest::rt {
 
-class SimRunner : public Dispatcher {
+class SimRunner : public LogicalTimeRunner {
  public:
-  explicit SimRunner(Micros start, std::string prefix = "") : Dispatcher(std::move(prefix)), clock_(start) {}
+  explicit SimRunner(Micros start, std::string prefix = "")
+      : LogicalTimeRunner(std::move(prefix), start, "sim runner") {}
 
   // Attaches the added nodes and delivers what they published on attach.
   void start();
@@ -64,7 +65,6 @@ class SimRunner : public Dispatcher {
   int exit_code() const { return exit_code_; }
 
   // Context
-  Micros now() const override { return clock_.now(); }
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
   void watch_fd(int fd, std::function<void()> on_readable) override { watched_[fd] = std::move(on_readable); }
   void unwatch_fd(int fd) override { watched_.erase(fd); }
@@ -74,10 +74,6 @@ class SimRunner : public Dispatcher {
   }
 
  private:
-  void drain();
-
-  ManualClock clock_;
-  std::deque<LogRecord> pending_;
   std::vector<LogRecord> log_;
   std::map<int, std::function<void()>> watched_;
   bool stop_requested_ = false;
