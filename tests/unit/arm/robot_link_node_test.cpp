@@ -643,7 +643,7 @@ TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
       ASSERT_NEAR(Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm(), 0.381,
                   0.01)
           << dir.transpose() << " after " << moving << " s";
-      const auto tool = [&] {
+      const auto tool = [&]() -> Eigen::Vector3d {  // a copy: translation() is a view of the temporary pose
         Eigen::VectorXd q(7);
         for (int i = 0; i < 7; ++i) q[i] = rig.drives().drive(static_cast<std::size_t>(i)).position();
         return kinematics::tool_pose(rig.model(), q).translation();
