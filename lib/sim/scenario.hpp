@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/board.hpp"
 #include "config/config.hpp"
 #include "geometry/camera_model.hpp"
 
@@ -99,14 +100,14 @@ struct Lighting {
 // leaves and bark, unripe fruit, auto-exposure and white-balance drift,
 // motion blur, vignetting and signal-dependent noise.
 struct Look {
-  std::string style = "flat";        // flat | field
-  double green_fraction = 0.0;       // share of fruit drawn unripe green (field)
-  double half_ripe_fraction = 0.0;   // share drawn half-ripe, green patches on orange (field)
-  double dry_leaf_fraction = 0.06;   // share of leaves drawn dry and brown (field)
-  double exposure_time_s = 0.008;    // shutter open time: motion blur of a moving camera (field)
-  bool auto_exposure = true;         // the camera meters each frame and adapts its gain with a lag (field)
-  double white_balance_drift = 0.04; // amplitude of the slow per-channel gain drift (field)
-  uint64_t seed = 1;                 // the scenario's seed (not a key): which fruit is green, which leaf dry
+  std::string style = "flat";         // flat | field
+  double green_fraction = 0.0;        // share of fruit drawn unripe green (field)
+  double half_ripe_fraction = 0.0;    // share drawn half-ripe, green patches on orange (field)
+  double dry_leaf_fraction = 0.06;    // share of leaves drawn dry and brown (field)
+  double exposure_time_s = 0.008;     // shutter open time: motion blur of a moving camera (field)
+  bool auto_exposure = true;          // the camera meters each frame and adapts its gain with a lag (field)
+  double white_balance_drift = 0.04;  // amplitude of the slow per-channel gain drift (field)
+  uint64_t seed = 1;                  // the scenario's seed (not a key): which fruit is green, which leaf dry
   bool field() const { return style == "field"; }
 };
 
@@ -118,10 +119,10 @@ struct Wind {
 struct ArmSetup {
   Vec3 start_tool_position = Vec3(-0.655, 0.785, -0.251);
   Vec3 start_look_at = Vec3(-0.2286, 1.0668, -0.5402);
-  double reach = 1.35;                     // fruit farther than this from the base origin are unreachable [m]
-  double max_linear_speed = 0.381;         // [m/s]
-  double max_angular_speed = 1.0;          // [rad/s]
-  double max_linear_accel = 1.5;           // [m/s^2]
+  double reach = 1.35;              // fruit farther than this from the base origin are unreachable [m]
+  double max_linear_speed = 0.381;  // [m/s]
+  double max_angular_speed = 1.0;   // [rad/s]
+  double max_linear_accel = 1.5;    // [m/s^2]
   // The camera-in-hand's TRUE optical frame in the tool frame (the software
   // has its own estimate, config/cameras/hand_eye.yaml). Default: the
   // simulated gripper's camera, in the palm beside the IR sensor, 17 mm off
@@ -180,12 +181,7 @@ struct Faults {
 };
 
 // A printed ChArUco calibration board (issue 20; drawn by sim::BoardPrimitive).
-struct BoardSpec {
-  int squares_x = 7, squares_y = 5;
-  double square_m = 0.04, marker_m = 0.03;
-  std::string dictionary = "DICT_5X5_100";  // an OpenCV predefined ArUco dictionary (board.cpp lists them)
-  double margin_m = 0.02;                   // white plate around the squares (the detector's quiet zone)
-};
+using calib::BoardSpec;
 
 // A board on a stand: `pose` takes board-frame points (OpenCV's board frame)
 // to the base frame.
