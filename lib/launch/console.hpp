@@ -4,6 +4,7 @@
 // CI, scripts).
 #pragma once
 
+#include <cstdint>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -14,9 +15,13 @@ struct StatusRow {
   std::string name, group, state;
   int pid = -1;
   int restarts = 0;
-  std::string last_exit;   // "" if it never exited
-  std::string heartbeat;   // age of the last heartbeat, "-" if none expected
+  std::string last_exit;  // "" if it never exited
+  std::string heartbeat;  // age of the last heartbeat, "-" if none expected
   std::string message;
+  std::string host = "";        // the deputy it runs under (the sheriff's table); "" on one host
+  double heartbeat_age_s = -1;  // -1: none yet or none expected
+  double cpu_percent = -1;      // -1: not measured (the launcher's own table)
+  int64_t rss_bytes = -1;
 };
 
 // A child's output line as the launcher prints it: "[source] text". A harvest
@@ -26,6 +31,8 @@ struct StatusRow {
 std::string prefixed_line(const std::string& source, const std::string& text);
 
 // Fixed-width table, header first, one row per process; every row ends with '\n'.
+// A HOST column comes first when a row names a host, CPU and MEM columns
+// after STATE when a row has them measured.
 std::string render_table(const std::vector<StatusRow>& rows, std::size_t width = 120);
 
 class Console {

@@ -7,9 +7,14 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
 #include <ctime>
 #include <iostream>
+#include <memory>
+#include <optional>
 
+#include "launch/deputy.hpp"
+#include "launch/sheriff.hpp"
 #include "launch/site_check.hpp"
 #include "launch/supervisor.hpp"
 #include "runtime/heartbeat.hpp"
@@ -64,14 +69,117 @@ void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
     std::cout << "\n";
   }
 }
+
+std::string host_name() {
+  char host[256] = {};
+  gethostname(host, sizeof host - 1);
+  return host;
+}
+
+void install_stop_handlers(rt::LiveRunner& runner) {
+  g_runner = &runner;
+  struct sigaction sa {};
+  sa.sa_handler = harvest_launch_on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+}
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::string item;
+  for (char c : text + ",") {
+    if (c == ',' || c == ' ') {
+      if (!item.empty()) out.push_back(item);
+      item.clear();
+    } else {
+      item += c;
+    }
+  }
+  return out;
+}
+
+struct SheriffArgs {
+  std::string restart, stop, start, key, sender, lcm_url, prefix;
+  bool list = false, no_table = false, quiet = false;
+  double timeout_s = 20, list_s = 3;
+};
+
+// harvest-launch --sheriff: every deputy's table and output; or one order.
+int sheriff_main(const SheriffArgs& a, const std::string& cmdline) {
+  SheriffOptions o;
+  try {
+    int orders = 0;
+    for (const auto& [target, action] :
+         {std::pair{a.restart, OrderAction::kRestart}, {a.stop, OrderAction::kStop}, {a.start, OrderAction::kStart}}) {
+      if (target.empty()) continue;
+      ++orders;
+      o.order = parse_target(target, action);
+    }
+    if (orders > 1 || (orders == 1 && a.list)) throw std::invalid_argument("one of --restart, --stop, --start, --list");
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "harvest-launch --sheriff: " << e.what() << "\n";
+    return 2;
+  }
+  o.order_timeout = static_cast<rt::Micros>(a.timeout_s * 1e6);
+  if (a.list) o.list_after = static_cast<rt::Micros>(a.list_s * 1e6);
+  o.print_output = !o.order && !a.list && !a.quiet;
+  o.sender = a.sender;
+  const char* user = std::getenv("USER");
+  o.source = std::string(user ? user : "?") + "@" + host_name() + " (harvest-launch --sheriff pid " +
+             std::to_string(getpid()) + ")";
+  try {
+    const security::Key key = security::load_named_key(a.key.empty() ? security::default_command_key() : a.key);
+    Console console(std::cout, isatty(STDOUT_FILENO) && !a.no_table && !o.order && !a.list);
+    Sheriff sheriff(o, console, key);
+    rt::LiveRunner runner(rt::LiveOptions{a.lcm_url, a.prefix, rt::kSecond});
+    rt::HeartbeatNode heartbeat(rt::ProcessIdentity{"launch", "sheriff", host_name(), static_cast<int>(getpid()), "",
+                                                    "", cmdline, rt::software_version()},
+                                {&sheriff});
+    runner.add(heartbeat);
+    runner.add(sheriff);
+    install_stop_handlers(runner);
+    const int rc = runner.run();
+    g_runner = nullptr;
+    if (a.list) {
+      std::cout << render_table(sheriff.rows());
+      if (sheriff.deputies() == 0) std::cerr << "harvest-launch --sheriff: no deputy seen in " << a.list_s << " s\n";
+    }
+    return rc;
+  } catch (const std::exception& e) {
+    g_runner = nullptr;
+    std::cerr << "harvest-launch --sheriff: " << e.what() << "\n";
+    return 2;
+  }
+}
 }  // namespace
 
 int launch_main(int argc, char** argv) {
   CLI::App app("Start, watch and stop a process set (docs/launcher.md)", "harvest-launch");
   std::string site_path, set_path, group, exit_with, bin_dir, instance = "launch", log_level = "info", lcm_url;
   std::vector<std::string> overrides;
-  bool check = false, no_table = false;
-  app.add_option("set", set_path, "process set file (config/sets/*.yaml)")->required();
+  bool check = false, no_table = false, sheriff = false;
+  std::string deputy, obey = "operator,console";
+  SheriffArgs sh;
+  app.add_option("set", set_path, "process set file (config/sets/*.yaml); not with --sheriff");
+  app.add_option("--deputy", deputy,
+                 "run as the deputy NAME: publish DEPUTY_STATUS and DEPUTY_OUTPUT, obey signed LAUNCH_ORDER");
+  app.add_flag("--sheriff", sheriff, "show every deputy's processes and output (no set); or send one order");
+  app.add_option("--restart", sh.restart, "with --sheriff: restart DEPUTY/PROCESS and wait for its new pid");
+  app.add_option("--stop", sh.stop, "with --sheriff: stop DEPUTY/PROCESS (not restarted by policy)");
+  app.add_option("--start", sh.start, "with --sheriff: start DEPUTY/PROCESS");
+  app.add_flag("--list", sh.list, "with --sheriff: print every deputy's table after --wait seconds and exit");
+  app.add_option("--wait", sh.list_s, "with --list: how long to listen [s] (default 3)");
+  app.add_option("--timeout", sh.timeout_s, "with an order: give up after this long [s] (default 20)");
+  app.add_flag("--quiet", sh.quiet, "with --sheriff: no forwarded output lines, only news and the table");
+  app.add_option("--key", sh.key,
+                 "command key: 'sim' or the robot's key file (default $HARVEST_COMMAND_KEY or sim); the sheriff signs "
+                 "orders with it, a deputy obeys orders signed with it");
+  app.add_option("--sender", sh.sender, "with --sheriff: the id orders are signed as (default operator)")
+      ->default_val("operator");
+  app.add_option("--obey", obey, "with --deputy: senders whose orders it obeys (default operator,console)");
+  app.add_option("--prefix", sh.prefix, "with --sheriff: channel prefix of the deputies' sets");
   app.add_flag("--check", check, "validate the set and print what would start, start nothing");
   app.add_option("--group", group, "start only the processes of this host group");
   app.add_option("--exit-with", exit_with, "stop the set when this process exits; exit with its code");
@@ -90,6 +198,29 @@ int launch_main(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? 0 : 2;
   }
+  std::string cmdline;
+  for (int i = 0; i < argc; ++i) cmdline += (i ? " " : "") + std::string(argv[i]);
+  if (sheriff) {
+    if (!set_path.empty() || !deputy.empty()) {
+      std::cerr << "harvest-launch: --sheriff takes no set and no --deputy\n";
+      return 2;
+    }
+    spdlog::set_default_logger(spdlog::stderr_color_mt("sheriff"));
+    spdlog::set_pattern("%H:%M:%S.%e %^%l%$ [%n] %v");
+    spdlog::set_level(spdlog::level::from_str(log_level));
+    sh.lcm_url = lcm_url;
+    sh.no_table = no_table;
+    return sheriff_main(sh, cmdline);
+  }
+  if (set_path.empty()) {
+    std::cerr << "harvest-launch: a set file is required (or --sheriff)\n";
+    return 2;
+  }
+  if (!sh.restart.empty() || !sh.stop.empty() || !sh.start.empty() || sh.list) {
+    std::cerr << "harvest-launch: --restart, --stop, --start and --list go with --sheriff\n";
+    return 2;
+  }
+  if (!deputy.empty() && instance == "launch") instance = "launch-" + deputy;
   spdlog::set_default_logger(spdlog::stderr_color_mt(instance));
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ [%n] %v");
   spdlog::set_level(spdlog::level::from_str(log_level));
@@ -152,25 +283,39 @@ int launch_main(int argc, char** argv) {
     sopts.group = group;
     sopts.exit_with = exit_with;
     sopts.own_instance = instance;
+    // A deputy's key is loaded before anything starts: a bad key file starts nothing.
+    std::optional<security::Key> deputy_key;
+    if (!deputy.empty()) {
+      deputy_key = security::load_named_key(sh.key.empty() ? security::default_command_key() : sh.key);
+      for (std::size_t i : selected)
+        for (const auto& arg : command_line(set, set.processes[i]))
+          if (const auto at = arg.find("socketcan:"); at != std::string::npos)
+            security::refuse_sim_key_on_real_bus(*deputy_key, arg.substr(at), "harvest-launch --deputy key");
+    }
     Supervisor supervisor(set, sopts, console, timestamp_now());
     rt::LiveRunner runner(rt::LiveOptions{set.lcm_url, set.prefix, supervisor.shutdown_budget()});
-    char host[256] = {};
-    gethostname(host, sizeof host - 1);
-    std::string cmdline;
-    for (int i = 0; i < argc; ++i) cmdline += (i ? " " : "") + std::string(argv[i]);
+    const std::string host = host_name();
+    std::vector<const rt::Node*> watched{&supervisor};
+    std::unique_ptr<Deputy> deputy_node;
+    if (deputy_key) {
+      DeputyOptions d;
+      d.name = deputy;
+      d.host = host;
+      d.pid = static_cast<int>(getpid());
+      d.set_name = set.name;
+      d.groups = group;
+      d.authority.key = sh.key.empty() ? security::default_command_key() : sh.key;
+      d.authority.operators = split_list(obey);
+      deputy_node = std::make_unique<Deputy>(supervisor, d, *deputy_key);
+      watched.push_back(deputy_node.get());
+    }
     rt::HeartbeatNode heartbeat(rt::ProcessIdentity{"launch", instance, host, static_cast<int>(getpid()), set_path,
                                                     effective, cmdline, rt::software_version()},
-                                {&supervisor});
+                                watched);
     runner.add(heartbeat);
+    if (deputy_node) runner.add(*deputy_node);  // attached first: it hears the supervisor's first news
     runner.add(supervisor);
-
-    g_runner = &runner;
-    struct sigaction sa {};
-    sa.sa_handler = harvest_launch_on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, nullptr);
-    sigaction(SIGTERM, &sa, nullptr);
-    signal(SIGPIPE, SIG_IGN);
+    install_stop_handlers(runner);
     const int rc = runner.run();
     g_runner = nullptr;
     console.line("launch", "all stopped, exit code " + std::to_string(rc));

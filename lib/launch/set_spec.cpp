@@ -297,9 +297,17 @@ std::vector<std::size_t> start_order(const SetSpec& set) {
 }
 
 std::vector<std::size_t> select_group(const SetSpec& set, const std::string& group) {
+  // "a,b": the processes of either group (one host running two groups, e.g. a deputy).
+  std::vector<std::string> wanted;
+  for (std::size_t start = 0; start <= group.size();) {
+    const std::size_t comma = std::min(group.find(',', start), group.size());
+    if (comma > start) wanted.push_back(group.substr(start, comma - start));
+    start = comma + 1;
+  }
   std::vector<std::size_t> out;
   for (std::size_t i : start_order(set))
-    if (group.empty() || set.processes[i].group == group) out.push_back(i);
+    if (wanted.empty() || std::find(wanted.begin(), wanted.end(), set.processes[i].group) != wanted.end())
+      out.push_back(i);
   return out;
 }
 

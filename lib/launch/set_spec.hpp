@@ -113,7 +113,7 @@ SetSpec load_set(const std::filesystem::path& set_file, const std::filesystem::p
 // config::Error on unknown names or cycles.
 std::vector<std::size_t> start_order(const SetSpec& set);
 
-// Processes to run for a host group (empty group: all).
+// Processes to run for a host group, or several comma-separated ("sim,robot"); empty: all.
 std::vector<std::size_t> select_group(const SetSpec& set, const std::string& group);
 
 // Resolved executable path, or nullopt if it cannot be found / run: a path

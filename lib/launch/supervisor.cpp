@@ -35,6 +35,15 @@ const char* phase_name(Phase p) {
   return "?";
 }
 
+const char* action_name(OrderAction a) {
+  switch (a) {
+    case OrderAction::kStart: return "start";
+    case OrderAction::kStop: return "stop";
+    case OrderAction::kRestart: return "restart";
+  }
+  return "?";
+}
+
 Supervisor::Supervisor(SetSpec set, SupervisorOptions options, Console& console, std::string timestamp)
     : rt::Node("supervisor"), set_(std::move(set)), options_(std::move(options)), console_(console) {
   log_health_changes(false);  // every problem the health names was said on the console already
@@ -100,7 +109,13 @@ void Supervisor::tick() {
     return;
   }
   start_due();
+  check_ordered_stops();
   check_heartbeats();
+}
+
+void Supervisor::say(const std::string& text) {
+  console_.line("launch", text);
+  if (tap_) tap_("launch", text);
 }
 
 void Supervisor::start(Managed& m) {
@@ -131,6 +146,7 @@ void Supervisor::drain_output(Managed& m) {
   char buf[4096];
   auto emit = [this, &m](const std::string& l) {
     console_.line(m.spec.name, l);
+    if (tap_) tap_(m.spec.name, l);
     if (m.recorder) m.reported_message = l;  // the table shows its last size/rate report
   };
   for (;;) {
@@ -165,14 +181,28 @@ void Supervisor::reap() {
 
 void Supervisor::on_exit(Managed& m, int code) {
   m.last_exit = code;
-  const std::string how = code > 128 ? "killed by signal " + std::to_string(code - 128)
-                                     : "exited with code " + std::to_string(code);
+  const std::string how =
+      code > 128 ? "killed by signal " + std::to_string(code - 128) : "exited with code " + std::to_string(code);
   if (shutting_down_) {
     m.phase = Phase::kStopped;
     say(m.spec.name + " stopped (" + how + ")");
     return;
   }
   say(m.spec.name + " " + how + " after " + seconds(now() - m.started));
+  if (m.ordered) {
+    // Stopped on an order: neither its restart policy nor ends_set nor critical applies.
+    const OrderAction a = *m.ordered;
+    m.ordered.reset();
+    if (a == OrderAction::kRestart) {
+      ++m.total_restarts;
+      count("restarts." + m.spec.name);
+      m.restarts = 0;
+      start(m);
+    } else {
+      m.phase = Phase::kStopped;
+    }
+    return;
+  }
   const bool named = !options_.exit_with.empty() && m.spec.name == options_.exit_with;
   if (named || m.spec.ends_set) {
     m.phase = Phase::kExited;
@@ -205,8 +235,7 @@ bool Supervisor::ready(const std::string& name) const {
     if (m.spec.name != name || m.recorder) continue;
     if (m.phase == Phase::kExited && m.last_exit == 0) return true;  // one-shot steps (calibration)
     if (m.phase != Phase::kRunning) return false;
-    return m.spec.heartbeat_timeout_s == 0 || m.last_beat >= 0 ||
-           now() - m.started >= micros(m.spec.ready_timeout_s);
+    return m.spec.heartbeat_timeout_s == 0 || m.last_beat >= 0 || now() - m.started >= micros(m.spec.ready_timeout_s);
   }
   return true;  // in another host group: started on another machine
 }
@@ -223,6 +252,52 @@ void Supervisor::start_due() {
       if (std::all_of(m.spec.after.begin(), m.spec.after.end(), [this](const std::string& d) { return ready(d); }))
         start(m);
     }
+  }
+}
+
+OrderResult Supervisor::order(const std::string& process, OrderAction action) {
+  const std::string what = std::string(action_name(action)) + " " + process;
+  if (shutting_down_) return {false, what + ": refused, the set is stopping"};
+  auto it = std::find_if(procs_.begin(), procs_.end(), [&](const Managed& m) { return m.spec.name == process; });
+  if (it == procs_.end()) return {false, what + ": no such process here"};
+  Managed& m = *it;
+  if (action == OrderAction::kStart) {
+    if (m.phase == Phase::kRunning || m.phase == Phase::kStopping)
+      return {false, what + ": refused, it is " + phase_name(m.phase) + " (pid " + std::to_string(m.pid) + ")"};
+    m.restarts = 0;
+    say("ordered: " + what);
+    start(m);
+    return {m.phase == Phase::kRunning,
+            what + (m.phase == Phase::kRunning ? ": started, pid " + std::to_string(m.pid) : ": could not start")};
+  }
+  if (m.pid <= 0) {
+    // Not running: a stop just keeps it down; a restart starts it now.
+    if (action == OrderAction::kStop) {
+      m.phase = Phase::kStopped;
+      say("ordered: " + what + " (was not running)");
+      return {true, what + ": stopped (was not running)"};
+    }
+    m.restarts = 0;
+    ++m.total_restarts;
+    say("ordered: " + what + " (was not running)");
+    start(m);
+    return {m.phase == Phase::kRunning, what + ": started, pid " + std::to_string(m.pid)};
+  }
+  if (m.ordered) return {false, what + ": refused, a " + action_name(*m.ordered) + " is under way"};
+  say("ordered: " + what + " (pid " + std::to_string(m.pid) + ")");
+  m.ordered = action;
+  m.phase = Phase::kStopping;
+  m.kill_at = now() + micros(m.spec.stop_timeout_s);
+  signal_group(m.pid, m.stop_signal);
+  return {true, what + ": stopping pid " + std::to_string(m.pid)};
+}
+
+void Supervisor::check_ordered_stops() {
+  for (auto& m : procs_) {
+    if (!m.ordered || m.pid <= 0 || m.kill_at == 0 || now() < m.kill_at) continue;
+    say(m.spec.name + " did not stop within " + seconds(micros(m.spec.stop_timeout_s)) + ": SIGKILL");
+    signal_group(m.pid, SIGKILL);
+    m.kill_at = 0;  // reaped on a later tick
   }
 }
 
@@ -325,9 +400,14 @@ std::vector<StatusRow> Supervisor::rows() const {
     r.pid = m.pid;
     r.restarts = m.total_restarts;
     if (m.last_exit) r.last_exit = std::to_string(*m.last_exit);
-    if (m.spec.heartbeat_timeout_s <= 0) r.heartbeat = "-";
-    else if (m.last_beat < 0) r.heartbeat = "none yet";
-    else r.heartbeat = seconds(now() - m.last_beat);
+    if (m.spec.heartbeat_timeout_s <= 0)
+      r.heartbeat = "-";
+    else if (m.last_beat < 0)
+      r.heartbeat = "none yet";
+    else {
+      r.heartbeat = seconds(now() - m.last_beat);
+      r.heartbeat_age_s = rt::to_seconds(now() - m.last_beat);
+    }
     r.message = m.reported_message;
     out.push_back(std::move(r));
   }
@@ -343,10 +423,14 @@ void Supervisor::refresh() {
     problems += (problems.empty() ? "" : "; ") + what;
   };
   for (const auto& m : procs_) {
-    if (m.phase == Phase::kFailed) note(m.spec.critical ? rt::Health::kError : rt::Health::kDegraded, m.spec.name + " failed");
-    else if (m.phase == Phase::kBackoff) note(rt::Health::kDegraded, m.spec.name + " restarting");
-    else if (m.heartbeat_lost) note(rt::Health::kDegraded, m.spec.name + " heartbeat lost");
-    else if (m.reported_state == harvest::process_status_t::STATE_ERROR) note(rt::Health::kDegraded, m.spec.name + " reports error");
+    if (m.phase == Phase::kFailed)
+      note(m.spec.critical ? rt::Health::kError : rt::Health::kDegraded, m.spec.name + " failed");
+    else if (m.phase == Phase::kBackoff)
+      note(rt::Health::kDegraded, m.spec.name + " restarting");
+    else if (m.heartbeat_lost)
+      note(rt::Health::kDegraded, m.spec.name + " heartbeat lost");
+    else if (m.reported_state == harvest::process_status_t::STATE_ERROR)
+      note(rt::Health::kDegraded, m.spec.name + " reports error");
   }
   if (shutting_down_) h = rt::Health::kStopping;
   set_health(h, problems);

@@ -12,6 +12,7 @@
 
 #include <harvest/process_status_t.hpp>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -37,7 +38,27 @@ struct SupervisorOptions {
 enum class Phase { kWaiting, kRunning, kBackoff, kExited, kFailed, kStopping, kStopped };
 const char* phase_name(Phase p);
 
-class Supervisor final : public rt::Node {
+// An order to one process of the set (a deputy obeys the sheriff's; docs/launcher.md).
+enum class OrderAction { kStart, kStop, kRestart };
+const char* action_name(OrderAction a);
+struct OrderResult {
+  bool done = false;  // false: refused (no such process, already running, shutting down)
+  std::string text;   // what was done or why not
+};
+
+// What a deputy needs of the launcher: its table, orders, and its output.
+class LaunchedSet {
+ public:
+  virtual ~LaunchedSet() = default;
+  virtual std::vector<StatusRow> rows() const = 0;
+  virtual OrderResult order(const std::string& process, OrderAction action) = 0;
+  // Called with every output line of a process (source = its name) and every
+  // line of the launcher's own news (source "launch").
+  using OutputTap = std::function<void(const std::string& source, const std::string& line)>;
+  virtual void set_output_tap(OutputTap tap) = 0;
+};
+
+class Supervisor final : public rt::Node, public LaunchedSet {
  public:
   Supervisor(SetSpec set, SupervisorOptions options, Console& console, std::string timestamp);
   ~Supervisor() override;  // SIGKILLs whatever is still running
@@ -47,7 +68,13 @@ class Supervisor final : public rt::Node {
 
   // Longest a clean shutdown can take (sum of the stop stages' timeouts).
   rt::Micros shutdown_budget() const;
-  std::vector<StatusRow> rows() const;
+  std::vector<StatusRow> rows() const override;
+  // Stop: the stop signal, SIGKILL after stop_timeout_s, then left stopped
+  // (no restart policy, no ends_set, a critical one does not stop the set).
+  // Restart: the same stop, then started at once. Start: one that is stopped,
+  // exited or failed, or waiting for its dependencies.
+  OrderResult order(const std::string& process, OrderAction action) override;
+  void set_output_tap(OutputTap tap) override { tap_ = std::move(tap); }
 
  private:
   struct Managed {
@@ -67,6 +94,8 @@ class Supervisor final : public rt::Node {
     bool heartbeat_lost = false;
     int8_t reported_state = -1;
     std::string reported_message;
+    std::optional<OrderAction> ordered;  // a stop or restart ordered and not yet done
+    rt::Micros kill_at = 0;              // SIGKILL then, if an ordered stop is not done
   };
 
   void on_attach() override;
@@ -81,7 +110,8 @@ class Supervisor final : public rt::Node {
   void on_status(const harvest::process_status_t& s);
   void advance_shutdown();
   void refresh();
-  void say(const std::string& text) { console_.line("launch", text); }
+  void check_ordered_stops();
+  void say(const std::string& text);
 
   SetSpec set_;
   SupervisorOptions options_;
@@ -94,6 +124,7 @@ class Supervisor final : public rt::Node {
   rt::Micros stage_deadline_ = 0;
   // Stops every group still running if this process dies without doing so.
   std::unique_ptr<Guardian> guardian_;
+  OutputTap tap_;
 };
 
 }  // namespace harvest::launch

@@ -34,22 +34,22 @@ std::string csv_cell(const std::string& s) {
   return out + "\"";
 }
 
-std::string json_value(const Field& f) {
+// Numbers as the text form prints them (a float to its 9 digits, not to the
+// 17 of the double it is held in).
+rt::Json json_value(const Field& f) {
   switch (f.kind) {
     case FieldKind::kInt:
+      return f.i;
     case FieldKind::kBool:
-      return value_text(f);
+      return f.i != 0;
     case FieldKind::kFloat:
     case FieldKind::kDouble:
-      return std::isfinite(f.d) ? value_text(f) : "null";
+      return std::isfinite(f.d) ? rt::Json(std::stod(value_text(f))) : rt::Json(nullptr);
     case FieldKind::kString:
-    case FieldKind::kBytes: {
-      std::string quoted(1, '"');
-      quoted.append(rt::json_escape(value_text(f))).push_back('"');
-      return quoted;
-    }
+    case FieldKind::kBytes:
+      return value_text(f);
   }
-  return "null";
+  return nullptr;
 }
 
 }  // namespace
@@ -72,14 +72,15 @@ int64_t export_channel(const std::vector<rt::LogRecord>& log, const std::string&
 
   if (options.format == ExportFormat::kJsonl) {
     for (const auto& row : rows) {
-      out << "{\"log_utime\":" << row.t;
+      rt::Json j;
+      j["log_utime"] = row.t;
       if (row.d.type == nullptr) {
-        out << ",\"error\":\"" << rt::json_escape(row.d.error) << "\"}\n";
-        continue;
+        j["error"] = row.d.error;
+      } else {
+        for (const auto& f : row.d.fields.items())
+          if (keep(f.path, options)) j[f.path] = json_value(f);
       }
-      for (const auto& f : row.d.fields.items())
-        if (keep(f.path, options)) out << ",\"" << rt::json_escape(f.path) << "\":" << json_value(f);
-      out << "}\n";
+      out << rt::json_line(j) << "\n";
     }
     return static_cast<int64_t>(rows.size());
   }

@@ -17,6 +17,7 @@
 #include <stdexcept>
 
 #include "config/config.hpp"
+#include "features/nodes.hpp"
 #include "logtools/explain.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/log_io.hpp"
@@ -24,9 +25,6 @@
 #include "servo/nodes.hpp"
 #include "vision/detector_node.hpp"
 #include "vision/reconstructor_node.hpp"
-#ifdef HARVEST_HAVE_FEATURE_TRACKER
-#include "features/nodes.hpp"
-#endif
 
 namespace harvest::logtools {
 
@@ -37,9 +35,7 @@ const std::vector<ReplayableNode>& node_registry() {
       {"servo-controller", servo::make_servo_controller,
        "TARGETS, FRUIT_HAND, ROBOT_STATE, IR_RANGE, GRIPPER_STATE, OPERATOR_COMMAND -> ROBOT_COMMAND, GRIPPER_COMMAND, "
        "HARVEST_STATUS"},
-#ifdef HARVEST_HAVE_FEATURE_TRACKER
       {"feature-tracker", features::make_feature_tracker, "CAMERA_HAND -> FEATURES_HAND"},
-#endif
   };
   return r;
 }

@@ -1,47 +1,18 @@
 #include "runtime/json.hpp"
 
-#include <cstdio>
+#include <cmath>
 
 namespace harvest::rt {
 
-std::string json_escape(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out;
+Json json_number(double v, int decimals) {
+  if (!std::isfinite(v)) return nullptr;
+  const double scale = std::pow(10.0, decimals);
+  const double r = std::round(v * scale) / scale;
+  return r == 0.0 ? 0.0 : r;  // no "-0.0"
 }
 
-std::string json_quoted(const std::string& s) {
-  // Appends, not "\"" + ...: GCC 12 warns falsely (-Wrestrict) on literal + std::string.
-  std::string out(1, '"');
-  out += json_escape(s);
-  out += '"';
-  return out;
-}
+std::string json_line(const Json& j) { return j.dump(-1, ' ', false, Json::error_handler_t::replace); }
+
+std::string json_pretty(const Json& j) { return j.dump(2, ' ', false, Json::error_handler_t::replace); }
 
 }  // namespace harvest::rt

@@ -1,15 +1,23 @@
-// JSON string escaping for the tools that print JSON lines (harvest-log
-// export, harvest-detect).
+// JSON for the tools that print it (harvest-log export, harvest-detect, the
+// demo's summary.json): nlohmann-json, keys in the order they were set.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace harvest::rt {
 
-// The characters of `s` escaped for use inside a JSON string (no quotes added).
-std::string json_escape(const std::string& s);
+using Json = nlohmann::ordered_json;
 
-// `s` as a quoted JSON string.
-std::string json_quoted(const std::string& s);
+// `v` rounded to `decimals` places (a figure for people, not the noise of its
+// last bits); null when it is not finite, which JSON cannot write.
+Json json_number(double v, int decimals);
+
+// One line. Text that is not UTF-8 (a string field of a message) is written
+// with U+FFFD in place of the bad bytes: the line stays valid JSON.
+std::string json_line(const Json& j);
+
+// Indented by two spaces, for files people read; same replacement.
+std::string json_pretty(const Json& j);
 
 }  // namespace harvest::rt

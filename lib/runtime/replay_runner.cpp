@@ -5,7 +5,8 @@
 
 namespace harvest::rt {
 
-ReplayRunner::ReplayRunner(ReplayOptions options) : Dispatcher(options.prefix), options_(std::move(options)) {}
+ReplayRunner::ReplayRunner(ReplayOptions options)
+    : LogicalTimeRunner(options.prefix, 0, "replay"), options_(std::move(options)) {}
 
 ReplayRunner::~ReplayRunner() = default;
 
@@ -35,31 +36,11 @@ void ReplayRunner::publish_bytes(const std::string& channel, const void* data, s
     }
   }
   if (options_.isolated) return;  // the other nodes get the recorded message instead
-  Pending p{channel, std::vector<uint8_t>(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + size)};
-  pending_.push_back(std::move(p));
+  queue(channel, data, size);
 }
 
-void ReplayRunner::drain() {
-  // Messages published while handling one input reach the other nodes at the
-  // same logical time, in publication order, before the next input.
-  std::size_t guard = 0;
-  while (!pending_.empty()) {
-    Pending p = std::move(pending_.front());
-    pending_.pop_front();
-    deliver(p.channel, p.bytes.data(), p.bytes.size(), clock_.now());
-    if (++guard > 1'000'000) throw std::runtime_error("replay: nodes keep publishing to each other without end");
-  }
-}
-
-void ReplayRunner::fire_until(Micros t) {
-  // Fire one timer at a time so messages it publishes are delivered before
-  // the next timer, exactly as live.
-  while (!stop_) {
-    auto due = timers_.next_due();
-    if (!due || *due > t) break;
-    result_.timers_fired += static_cast<int64_t>(timers_.fire_due(*due, [this](Micros d) { clock_.set(d); }));
-    drain();
-  }
+void ReplayRunner::fire_timers_until(Micros t) {
+  result_.timers_fired += fire_until(t, [this] { return stop_; });
 }
 
 ReplayResult ReplayRunner::run() {
@@ -83,7 +64,7 @@ ReplayResult ReplayRunner::run() {
   for (; ev != nullptr && !stop_; ev = in.readNextEvent()) {
     if (options_.end_time && ev->timestamp > *options_.end_time) break;
     ++result_.events_read;
-    fire_until(ev->timestamp);
+    fire_timers_until(ev->timestamp);
     if (stop_) break;
     clock_.set(std::max(clock_.now(), static_cast<Micros>(ev->timestamp)));
     result_.last_time = clock_.now();
@@ -102,7 +83,7 @@ ReplayResult ReplayRunner::run() {
     deliver(logical, ev->data, static_cast<std::size_t>(ev->datalen), clock_.now());
     drain();
   }
-  if (!stop_ && options_.tail > 0) fire_until(result_.last_time + options_.tail);
+  if (!stop_ && options_.tail > 0) fire_timers_until(result_.last_time + options_.tail);
   out_.reset();
   if (write_failed_) throw std::runtime_error("cannot write " + options_.output_log);
   return result_;

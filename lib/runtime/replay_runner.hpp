@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "runtime/dispatcher.hpp"
+#include "runtime/logical_time_runner.hpp"
 
 namespace harvest::rt {
 
@@ -49,31 +49,23 @@ struct ReplayResult {
   int exit_code = 0;
 };
 
-class ReplayRunner final : public Dispatcher {
+class ReplayRunner final : public LogicalTimeRunner {
  public:
   explicit ReplayRunner(ReplayOptions options);
   ~ReplayRunner() override;
 
   ReplayResult run();
 
-  Micros now() const override { return clock_.now(); }
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
   void watch_fd(int, std::function<void()>) override;
   void unwatch_fd(int) override {}
   void request_stop(int exit_code) override;
 
  private:
-  void drain();
-  void fire_until(Micros t);
+  void fire_timers_until(Micros t);
 
   ReplayOptions options_;
-  ManualClock clock_;
   std::unique_ptr<lcm::LogFile> out_;
-  struct Pending {
-    std::string channel;
-    std::vector<uint8_t> bytes;
-  };
-  std::deque<Pending> pending_;
   ReplayResult result_;
   bool stop_ = false;
   bool write_failed_ = false;

@@ -9,23 +9,29 @@
 // Every message on the bus, injected or published, is kept in order in log(),
 // as a logger on a live bus would record it. One in-memory runner for every
 // test so no test harness drifts from what replay does.
+// Devices (a CAN bus, a serial link) are not in a replay: a node's watched
+// descriptor is offered to it when the test says its device may have data,
+// poll(), at the current time, followed by the messages it caused.
 #pragma once
 
 #include <deque>
+#include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "runtime/clock.hpp"
-#include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
+#include "runtime/logical_time_runner.hpp"
 
 namespace harvest::rt {
 
-class SimRunner : public Dispatcher {
+class SimRunner : public LogicalTimeRunner {
  public:
-  explicit SimRunner(Micros start, std::string prefix = "") : Dispatcher(std::move(prefix)), clock_(start) {}
+  explicit SimRunner(Micros start, std::string prefix = "")
+      : LogicalTimeRunner(std::move(prefix), start, "sim runner") {}
 
   // Attaches the added nodes and delivers what they published on attach.
   void start();
@@ -50,27 +56,26 @@ class SimRunner : public Dispatcher {
         if (auto m = decode<Msg>(r.data)) out.emplace_back(r.timestamp, std::move(*m));
     return out;
   }
+  // Offers every watched descriptor to its node once, as a poller finding it
+  // readable would.
+  void poll();
+  bool watching() const { return !watched_.empty(); }
+  const Clock& clock() const { return clock_; }
   bool stop_requested() const { return stop_requested_; }
   int exit_code() const { return exit_code_; }
 
   // Context
-  Micros now() const override { return clock_.now(); }
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
-  void watch_fd(int, std::function<void()>) override {
-    throw std::logic_error("the in-memory runner watches no file descriptors");
-  }
-  void unwatch_fd(int) override {}
+  void watch_fd(int fd, std::function<void()> on_readable) override { watched_[fd] = std::move(on_readable); }
+  void unwatch_fd(int fd) override { watched_.erase(fd); }
   void request_stop(int exit_code) override {
     stop_requested_ = true;
     exit_code_ = exit_code;
   }
 
  private:
-  void drain();
-
-  ManualClock clock_;
-  std::deque<LogRecord> pending_;
   std::vector<LogRecord> log_;
+  std::map<int, std::function<void()>> watched_;
   bool stop_requested_ = false;
   int exit_code_ = 0;
 };

@@ -7,16 +7,14 @@
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/core.hpp>
 
+#include "calib/board.hpp"
 #include "sim/renderer.hpp"
 #include "sim/scenario.hpp"
 
 namespace harvest::sim {
 
-// OpenCV's board for a spec; throws std::invalid_argument on an impossible
-// layout or an unknown dictionary.
-cv::Ptr<cv::aruco::CharucoBoard> make_board(const BoardSpec& spec);
-// The dictionary names make_board accepts.
-const std::vector<std::string>& board_dictionaries();
+using calib::board_dictionaries;
+using calib::make_board;
 
 // The board on its plate; `pose` takes board-frame points to the base frame.
 // The board frame is OpenCV 4.6's: origin at the top-left corner of the

@@ -5,18 +5,13 @@
 #include <random>
 
 #include "sim/materials.hpp"
+#include "sim/splitmix.hpp"
 
 namespace harvest::sim {
 namespace {
 
 constexpr std::size_t kNoiseTable = 1 << 16;
 
-uint64_t splitmix(uint64_t& s) {
-  uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
 
 }  // namespace
 
@@ -94,7 +89,7 @@ void FieldCamera::develop(std::vector<float>& rgb, const Eigen::Vector2f& blur_p
   for (int c = 0; c < 3; ++c)
     g[c] = static_cast<float>(gain_ * (1.0 + wb_cast_[c] +
                                        look_.white_balance_drift * std::sin(2.0 * M_PI * wb_freq_[c] * t + wb_phase_[c])));
-  const uint64_t offset = splitmix(noise_state_);
+  const uint64_t offset = splitmix_next(noise_state_);
   out.create(h_, w_, CV_8UC3);
   auto* px = out.ptr<uint8_t>(0);
   for (std::size_t i = 0; i < n; ++i) {

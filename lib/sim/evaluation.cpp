@@ -282,61 +282,80 @@ void finish(Evaluation& e) {
 }
 
 std::string to_json(const Evaluation& e) {
-  std::ostringstream o;
-  o << "{\n  \"scenario\": " << rt::json_quoted(e.scenario) << ",\n  \"runs\": " << e.runs
-    << ",\n  \"fruit_total\": " << e.fruit_total << ",\n  \"reachable\": " << e.reachable
-    << ",\n  \"picked\": " << e.picked << ",\n  \"success_rate\": " << number(e.success_rate, 4)
-    << ",\n  \"mean_cycle_time_s\": " << number(e.mean_cycle_s)
-    << ",\n  \"max_cycle_time_s\": " << number(e.max_cycle_s)
-    << ",\n  \"mean_final_error_mm\": " << number(e.mean_error_mm, 2)
-    << ",\n  \"max_final_error_mm\": " << number(e.max_error_mm, 2) << ",\n  \"final_position_std_mm\": ["
-    << number(e.final_tool_std_mm[0], 2) << ", " << number(e.final_tool_std_mm[1], 2) << ", "
-    << number(e.final_tool_std_mm[2], 2) << "],\n  \"simulated_time_s\": " << number(e.sim_duration_s, 1)
-    << ",\n  \"picked_any\": " << e.picked_any << ",\n  \"time_per_pick_s\": " << number(e.time_per_pick_s, 2)
-    << ",\n  \"fruit\": [";
-  for (std::size_t i = 0; i < e.fruit.size(); ++i) {
-    const auto& f = e.fruit[i];
-    o << (i ? "," : "") << "\n    {\"run\": " << f.run << ", \"sim_id\": " << f.sim_id
-      << ", \"controller_fruit_id\": " << f.controller_fruit_id << ", \"counted\": " << (f.counted ? "true" : "false")
-      << ", \"reachable\": " << (f.reachable ? "true" : "false")
-      << ", \"visible_fraction\": " << number(f.visible_fraction, 2) << ", \"outcome\": " << rt::json_quoted(f.outcome)
-      << ", \"cycle_time_s\": " << (f.cycle_time_s ? number(*f.cycle_time_s) : "null")
-      << ", \"final_error_mm\": " << (f.final_offset ? number(f.final_offset->norm() * 1e3, 2) : "null")
-      << ", \"true_position_mm\": [" << number(f.true_position.x() * 1e3, 1) << ", "
-      << number(f.true_position.y() * 1e3, 1) << ", " << number(f.true_position.z() * 1e3, 1) << "]}";
+  using rt::Json;
+  using rt::json_number;
+  auto mm3 = [](const Eigen::Vector3d& p) {
+    return Json::array({json_number(p.x() * 1e3, 1), json_number(p.y() * 1e3, 1), json_number(p.z() * 1e3, 1)});
+  };
+  Json j;
+  j["scenario"] = e.scenario;
+  j["runs"] = e.runs;
+  j["fruit_total"] = e.fruit_total;
+  j["reachable"] = e.reachable;
+  j["picked"] = e.picked;
+  j["success_rate"] = json_number(e.success_rate, 4);
+  j["mean_cycle_time_s"] = json_number(e.mean_cycle_s, 3);
+  j["max_cycle_time_s"] = json_number(e.max_cycle_s, 3);
+  j["mean_final_error_mm"] = json_number(e.mean_error_mm, 2);
+  j["max_final_error_mm"] = json_number(e.max_error_mm, 2);
+  j["final_position_std_mm"] = Json::array({json_number(e.final_tool_std_mm[0], 2),
+                                            json_number(e.final_tool_std_mm[1], 2),
+                                            json_number(e.final_tool_std_mm[2], 2)});
+  j["simulated_time_s"] = json_number(e.sim_duration_s, 1);
+  j["picked_any"] = e.picked_any;
+  j["time_per_pick_s"] = json_number(e.time_per_pick_s, 2);
+  j["fruit"] = Json::array();
+  for (const auto& f : e.fruit) {
+    Json o;
+    o["run"] = f.run;
+    o["sim_id"] = f.sim_id;
+    o["controller_fruit_id"] = f.controller_fruit_id;
+    o["counted"] = f.counted;
+    o["reachable"] = f.reachable;
+    o["visible_fraction"] = json_number(f.visible_fraction, 2);
+    o["outcome"] = f.outcome;
+    o["cycle_time_s"] = f.cycle_time_s ? json_number(*f.cycle_time_s, 3) : Json(nullptr);
+    o["final_error_mm"] = f.final_offset ? json_number(f.final_offset->norm() * 1e3, 2) : Json(nullptr);
+    o["true_position_mm"] = mm3(f.true_position);
+    j["fruit"].push_back(std::move(o));
   }
-  o << "\n  ],\n  \"per_run\": [";
-  for (std::size_t i = 0; i < e.per_run.size(); ++i) {
-    const auto& r = e.per_run[i];
-    o << (i ? "," : "") << "\n    {\"run\": " << r.run << ", \"seed\": " << r.seed << ", \"reachable\": " << r.reachable
-      << ", \"picked\": " << r.picked << ", \"picked_any\": " << r.picked_any
-      << ", \"success_rate\": " << number(r.success_rate, 4) << ", \"mean_cycle_time_s\": " << number(r.mean_cycle_s)
-      << ", \"mean_final_error_mm\": " << number(r.mean_error_mm, 2)
-      << ", \"max_final_error_mm\": " << number(r.max_error_mm, 2)
-      << ", \"simulated_time_s\": " << number(r.sim_duration_s, 1)
-      << ", \"time_per_pick_s\": " << number(r.time_per_pick_s, 2) << "}";
+  j["per_run"] = Json::array();
+  for (const auto& r : e.per_run) {
+    Json o;
+    o["run"] = r.run;
+    o["seed"] = r.seed;
+    o["reachable"] = r.reachable;
+    o["picked"] = r.picked;
+    o["picked_any"] = r.picked_any;
+    o["success_rate"] = json_number(r.success_rate, 4);
+    o["mean_cycle_time_s"] = json_number(r.mean_cycle_s, 3);
+    o["mean_final_error_mm"] = json_number(r.mean_error_mm, 2);
+    o["max_final_error_mm"] = json_number(r.max_error_mm, 2);
+    o["simulated_time_s"] = json_number(r.sim_duration_s, 1);
+    o["time_per_pick_s"] = json_number(r.time_per_pick_s, 2);
+    j["per_run"].push_back(std::move(o));
   }
   const AcrossRuns& a = e.across_runs;
-  o << "\n  ],\n  \"across_runs\": {\"mean_success_rate\": " << number(a.mean_success, 4)
-    << ", \"worst_success_rate\": " << number(a.worst_success, 4) << ", \"worst_run\": " << a.worst_run
-    << ", \"best_success_rate\": " << number(a.best_success, 4)
-    << ", \"std_success_rate\": " << number(a.std_success, 4)
-    << ", \"worst_final_error_mm\": " << number(a.worst_error_mm, 2) << "},\n";
-  auto bins = [&](const char* key, const std::vector<DepthBin>& v) {
-    o << "  \"" << key << "\": [";
-    for (std::size_t i = 0; i < v.size(); ++i)
-      o << (i ? ", " : "") << "{\"from_m\": " << number(v[i].from_m, 2) << ", \"to_m\": " << number(v[i].to_m, 2)
-        << ", \"samples\": " << v[i].samples << ", \"mean_error_mm\": " << number(v[i].mean_error_m * 1e3, 1)
-        << ", \"rms_error_mm\": " << number(v[i].rms_error_m * 1e3, 1) << "}";
-    o << "]";
+  j["across_runs"] = {{"mean_success_rate", json_number(a.mean_success, 4)},
+                      {"worst_success_rate", json_number(a.worst_success, 4)},
+                      {"worst_run", a.worst_run},
+                      {"best_success_rate", json_number(a.best_success, 4)},
+                      {"std_success_rate", json_number(a.std_success, 4)},
+                      {"worst_final_error_mm", json_number(a.worst_error_mm, 2)}};
+  auto bins = [&](const std::vector<DepthBin>& v) {
+    Json out = Json::array();
+    for (const auto& b : v)
+      out.push_back({{"from_m", json_number(b.from_m, 2)},
+                     {"to_m", json_number(b.to_m, 2)},
+                     {"samples", b.samples},
+                     {"mean_error_mm", json_number(b.mean_error_m * 1e3, 1)},
+                     {"rms_error_mm", json_number(b.rms_error_m * 1e3, 1)}});
+    return out;
   };
-  bins("depth_error_fixed", e.depth_fixed);
-  o << ",\n";
-  bins("depth_error_hand", e.depth_hand);
-  o << ",\n  \"warnings\": [";
-  for (std::size_t i = 0; i < e.warnings.size(); ++i) o << (i ? ", " : "") << rt::json_quoted(e.warnings[i]);
-  o << "]\n}\n";
-  return o.str();
+  j["depth_error_fixed"] = bins(e.depth_fixed);
+  j["depth_error_hand"] = bins(e.depth_hand);
+  j["warnings"] = e.warnings;
+  return rt::json_pretty(j) + "\n";
 }
 
 std::string to_table(const Evaluation& e) {

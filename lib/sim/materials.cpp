@@ -4,15 +4,10 @@
 #include <cmath>
 #include <random>
 
+#include "sim/splitmix.hpp"
+
 namespace harvest::sim {
 namespace {
-
-uint64_t splitmix(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
 
 float pow16(float x) {
   x *= x;
@@ -79,7 +74,7 @@ const NoiseTexture& NoiseTexture::fine() {
 }
 
 double hashed_unit(uint64_t seed, uint64_t kind, uint64_t index) {
-  const uint64_t h = splitmix(splitmix(splitmix(seed) ^ kind) ^ index);
+  const uint64_t h = splitmix_hash(splitmix_hash(splitmix_hash(seed) ^ kind) ^ index);
   return static_cast<double>(h >> 11) * 0x1.0p-53;
 }
 

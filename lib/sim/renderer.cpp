@@ -5,18 +5,14 @@
 #include <cmath>
 #include <random>
 
+#include "sim/splitmix.hpp"
+
 namespace harvest::sim {
 namespace {
 
 constexpr float kNear = 0.005f;  // [m] nothing closer to the lens is drawn
 constexpr std::size_t kNoiseTable = 1 << 16;
 
-uint64_t splitmix(uint64_t& s) {
-  uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
 
 double shade(const Lighting& light, double cos_sun) {
   return (light.ambient + light.diffuse * std::max(0.0, cos_sun)) * light.exposure;
@@ -294,7 +290,7 @@ const cv::Mat& Renderer::render(const Scene& scene, const Placement& pose, const
 
 void Renderer::write_flat(const Eigen::Vector3f& sun, const Lighting& light) {
   // Write out with sensor noise; the table offset advances every frame.
-  const uint64_t offset = splitmix(noise_state_);
+  const uint64_t offset = splitmix_next(noise_state_);
   const std::size_t n = ids_.size();
   for (std::size_t i = 0; i < n; ++i) {
     auto* px = image_.ptr<uint8_t>(0) + 3 * i;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/board.hpp"
 #include "config/config.hpp"
 #include "config/schema.hpp"
 #include "geometry/camera_model.hpp"
@@ -342,15 +343,7 @@ struct Faults {
 };
 
 // A printed ChArUco calibration board (issue 20; drawn by sim::BoardPrimitive).
-struct BoardSpec {
-  int squares_x = static_cast<int>(scenario_keys::lists::squares.fallback[0]);
-  int squares_y = static_cast<int>(scenario_keys::lists::squares.fallback[1]);
-  double square_m = scenario_keys::boards::square_mm.fallback * 1e-3;
-  double marker_m = scenario_keys::boards::marker_mm.fallback * 1e-3;
-  std::string dictionary{scenario_keys::lists::dictionary.fallback};  // board.cpp lists them
-  // white plate around the squares (the detector's quiet zone)
-  double margin_m = scenario_keys::boards::margin_mm.fallback * 1e-3;
-};
+using calib::BoardSpec;
 
 // A board on a stand: `pose` takes board-frame points (OpenCV's board frame)
 // to the base frame.

@@ -16,28 +16,16 @@
 
 namespace harvest::vision {
 
-namespace {
-
-std::string number(double v, int decimals) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
-}  // namespace
-
 std::string detections_json(const std::string& image, int width, int height, const Detections& d) {
-  std::string s = "{\"image\": " + rt::json_quoted(image) + ", \"width\": " + std::to_string(width) +
-                  ", \"height\": " + std::to_string(height) + ", \"fruits\": [";
-  for (std::size_t i = 0; i < d.fruits.size(); ++i) {
-    const Fruit& f = d.fruits[i];
-    if (i) s += ", ";
-    s += "{\"u\": " + number(f.u, 2) + ", \"v\": " + number(f.v, 2) + ", \"diameter_px\": " + number(f.diameter_px, 2) +
-         ", \"depth_m\": " + number(f.depth_m, 4) + ", \"confidence\": " + number(f.confidence, 3) +
-         ", \"selected\": " + (f.selected ? "true" : "false") + "}";
-  }
-  return s + "]}";
+  rt::Json fruits = rt::Json::array();
+  for (const Fruit& f : d.fruits)
+    fruits.push_back({{"u", rt::json_number(f.u, 2)},
+                      {"v", rt::json_number(f.v, 2)},
+                      {"diameter_px", rt::json_number(f.diameter_px, 2)},
+                      {"depth_m", rt::json_number(f.depth_m, 4)},
+                      {"confidence", rt::json_number(f.confidence, 3)},
+                      {"selected", f.selected}});
+  return rt::json_line({{"image", image}, {"width", width}, {"height", height}, {"fruits", std::move(fruits)}});
 }
 
 namespace {
@@ -192,9 +180,13 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     total.boxes += static_cast<int>(boxes.size());
     total.detections += static_cast<int>(dets.size());
     total.true_positives += tp;
-    out << "{\"image\": " << rt::json_quoted(path) << ", \"width\": " << img.cols << ", \"height\": " << img.rows
-        << ", \"boxes\": " << boxes.size() << ", \"fruits\": " << dets.size() << ", \"true_positives\": " << tp
-        << "}\n";
+    out << rt::json_line({{"image", path},
+                          {"width", img.cols},
+                          {"height", img.rows},
+                          {"boxes", boxes.size()},
+                          {"fruits", dets.size()},
+                          {"true_positives", tp}})
+        << "\n";
     if (!options.overlay_dir.empty()) {
       cv::Mat overlay = draw_overlay(img, d);
       draw_box_evaluation(overlay, boxes, dets, match);
@@ -203,11 +195,17 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
   }
   const double p = total.precision(), r = total.recall();
   const double f1 = p + r > 0 ? 2 * p * r / (p + r) : 0.0;
-  out << "{\"summary\": {\"images\": " << total.images << ", \"boxes\": " << total.boxes
-      << ", \"detections\": " << total.detections << ", \"true_positives\": " << total.true_positives
-      << ", \"precision\": " << number(total.precision(), 4) << ", \"recall\": " << number(total.recall(), 4)
-      << ", \"f1\": " << number(f1, 4) << ", \"centre_error\": " << number(median(centre_errors), 4)
-      << ", \"diameter_error\": " << number(median(diameter_errors), 4) << "}}\n";
+  out << rt::json_line({{"summary",
+                        {{"images", total.images},
+                         {"boxes", total.boxes},
+                         {"detections", total.detections},
+                         {"true_positives", total.true_positives},
+                         {"precision", rt::json_number(total.precision(), 4)},
+                         {"recall", rt::json_number(total.recall(), 4)},
+                         {"f1", rt::json_number(f1, 4)},
+                         {"centre_error", rt::json_number(median(centre_errors), 4)},
+                         {"diameter_error", rt::json_number(median(diameter_errors), 4)}}}})
+      << "\n";
   out.flush();
   return rc;
 }

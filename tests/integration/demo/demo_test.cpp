@@ -13,11 +13,13 @@
 #include <sstream>
 
 #include "demo/set_rewrite.hpp"
+#include "runtime/json.hpp"
 #include "runtime/log_io.hpp"
 #include "test_support.hpp"
 
 namespace ht = harvest::testing;
 namespace fs = std::filesystem;
+namespace rt = harvest::rt;
 
 namespace {
 
@@ -58,10 +60,14 @@ TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
   EXPECT_NE(out.find("IR_APPROACH"), std::string::npos) << out;
   EXPECT_NE(out.find("DETACH"), std::string::npos) << out;
   const std::string summary = slurp(dir / "summary.json");
-  EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\"success_rate\": 1"), std::string::npos) << summary;
+  const auto j = rt::Json::parse(summary);
+  EXPECT_EQ(j["picked"], 1) << summary;
+  EXPECT_EQ(j["success_rate"], 1.0) << summary;
   EXPECT_EQ(summary, slurp(dir / "out" / "summary.json"));
-  EXPECT_NE(summary.find("{\"run\": 0, \"seed\": 7, \"reachable\": 1, \"picked\": 1,"), std::string::npos) << summary;
+  ASSERT_EQ(j["per_run"].size(), 1u) << summary;
+  EXPECT_EQ(j["per_run"][0]["seed"], 7);
+  EXPECT_EQ(j["per_run"][0]["reachable"], 1);
+  EXPECT_EQ(j["per_run"][0]["picked"], 1);
   EXPECT_NE(slurp(dir / "out" / "run0-set.yaml").find("seed=7"), std::string::npos);
   EXPECT_TRUE(fs::exists(dir / "out" / "report.md"));
 
@@ -178,7 +184,7 @@ TEST(Demo, TwoFieldSetDemosAtOnceEachPickOverTheirOwnCanBusAndBoardPort) {
     const std::string out = demos[i]->output();
     EXPECT_EQ(code, 0) << out;
     const std::string summary = slurp(d / "out" / "summary.json");
-    EXPECT_NE(summary.find("\"picked\": 1,"), std::string::npos) << summary << out;
+    EXPECT_EQ(rt::Json::parse(summary)["picked"], 1) << summary << out;
     // ROBOT_STATE came from the robot link, IR_RANGE from the bridge.
     const std::string launch_log = slurp(d / "out" / "run0-launch.log");
     EXPECT_NE(launch_log.find("started robot-link"), std::string::npos) << launch_log;

@@ -23,10 +23,9 @@ namespace {
 const std::vector<std::string> kVisionNodes = {"--node", "fruit-detector:config/vision/detector-fixed.yaml",
                                                "--node", "fruit-detector:config/vision/detector-hand.yaml",
                                                "--node", "reconstructor:config/vision/reconstructor.yaml"};
-// The controller as recorded by `tools/harvest refresh-logs`: closing at 35 mm.
+// The controller as recorded by `tools/harvest refresh-logs`.
 const std::vector<std::string> kHarvestNodes = {"--node", "reconstructor:config/vision/reconstructor.yaml",
-                                                "--node", "servo-controller:config/servo/controller.yaml",
-                                                "--set",  "servo-controller:ir_grasp_range=0.035"};
+                                                "--node", "servo-controller:config/servo/controller.yaml"};
 
 struct Run {
   int code = -1;

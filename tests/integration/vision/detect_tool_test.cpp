@@ -6,6 +6,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 
@@ -19,19 +20,24 @@ namespace {
 cv::Mat3b leaves(int w, int h) { return cv::Mat3b(h, w, cv::Vec3b(40, 120, 60)); }
 void fruit(cv::Mat3b& img, int cx, int cy, int r) { cv::circle(img, {cx, cy}, r, cv::Scalar(30, 140, 230), -1); }
 
-std::vector<std::string> lines_starting(const std::string& text, const std::string& prefix) {
-  std::vector<std::string> out;
+using Json = nlohmann::json;
+
+// The JSON lines of the tool's output that have `key` at the top level.
+std::vector<Json> objects_with(const std::string& text, const std::string& key) {
+  std::vector<Json> out;
   std::istringstream in(text);
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind(prefix, 0) == 0) out.push_back(line);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] != '{') continue;
+    Json j = Json::parse(line);  // a line that starts an object and is not JSON fails the test
+    if (j.contains(key)) out.push_back(std::move(j));
+  }
   return out;
 }
 
-std::vector<double> numbers_of(const std::string& line, const std::string& key) {
+// `key` of every fruit of an image's line.
+std::vector<double> of_fruits(const Json& image, const std::string& key) {
   std::vector<double> out;
-  const std::regex re("\"" + key + "\": (-?[0-9.]+)");
-  for (auto it = std::sregex_iterator(line.begin(), line.end(), re); it != std::sregex_iterator(); ++it)
-    out.push_back(std::stod((*it)[1]));
+  for (const auto& f : image.at("fruits")) out.push_back(f.at(key).get<double>());
   return out;
 }
 
@@ -69,29 +75,29 @@ TEST_F(DetectTool, JsonLinePerImageOverlaysAndErrorsForUnreadableImages) {
       << out;
   EXPECT_NE(out.find("cannot read image " + broken), std::string::npos) << out;
   EXPECT_NE(out.find("cannot read image " + missing), std::string::npos) << out;
-  const auto json = lines_starting(out, "{\"image\": ");
+  const auto json = objects_with(out, "image");
   ASSERT_EQ(json.size(), 2u) << out;  // the readable ones, in order
-  EXPECT_EQ(json[0].rfind("{\"image\": \"" + a + "\", \"width\": 640, \"height\": 480, \"fruits\": [", 0), 0u)
-      << json[0];
-  EXPECT_EQ(json[1].rfind("{\"image\": \"" + b + "\", \"width\": 320, \"height\": 240, \"fruits\": [", 0), 0u)
-      << json[1];
-  const auto u0 = numbers_of(json[0], "u"), v0 = numbers_of(json[0], "v"), d0 = numbers_of(json[0], "diameter_px");
+  EXPECT_EQ(json[0]["image"], a);
+  EXPECT_EQ(json[0]["width"], 640);
+  EXPECT_EQ(json[0]["height"], 480);
+  EXPECT_EQ(json[1]["image"], b);
+  EXPECT_EQ(json[1]["width"], 320);
+  EXPECT_EQ(json[1]["height"], 240);
+  const auto u0 = of_fruits(json[0], "u"), v0 = of_fruits(json[0], "v"), d0 = of_fruits(json[0], "diameter_px");
   ASSERT_EQ(u0.size(), 1u);
   EXPECT_NEAR(u0[0], 200, 0.5);
   EXPECT_NEAR(v0[0], 150, 0.5);
   EXPECT_NEAR(d0[0], 81, 0.02 * 81);
-  const auto z0 = numbers_of(json[0], "depth_m");
+  const auto z0 = of_fruits(json[0], "depth_m");
   ASSERT_EQ(z0.size(), 1u);
   EXPECT_NEAR(z0[0], 0.5 * (833.57 + 767.02) * 0.0725 / d0[0], 2e-4);  // eq. 6-11 at the calibrated size
-  EXPECT_NE(json[0].find("\"selected\": true"), std::string::npos);
-  const auto u1 = numbers_of(json[1], "u");
+  EXPECT_EQ(json[0]["fruits"][0]["selected"], true);
+  const auto u1 = of_fruits(json[1], "u");
   ASSERT_EQ(u1.size(), 2u);
-  EXPECT_EQ(numbers_of(json[1], "confidence").size(), 2u);
+  EXPECT_EQ(of_fruits(json[1], "confidence").size(), 2u);
   // Exactly one fruit is the target.
   std::size_t selected = 0;
-  for (std::size_t p = json[1].find("\"selected\": true"); p != std::string::npos;
-       p = json[1].find("\"selected\": true", p + 1))
-    ++selected;
+  for (const auto& f : json[1]["fruits"]) selected += f["selected"].get<bool>() ? 1 : 0;
   EXPECT_EQ(selected, 1u);
 
   // Overlays: the image with something drawn on it, for the readable images only.
@@ -115,15 +121,20 @@ TEST_F(DetectTool, EvaluationCountsOneToOneMatches) {
   std::string out;
   EXPECT_EQ(run({"--evaluate", (dir / "boxes.csv").string(), "--images-dir", dir.path().string()}, &out), 1) << out;
   EXPECT_NE(out.find("cannot read image " + (dir / "broken.png").string()), std::string::npos) << out;
-  const auto per_image = lines_starting(out, "{\"image\": ");
+  const auto per_image = objects_with(out, "image");
   ASSERT_EQ(per_image.size(), 2u) << out;
-  EXPECT_NE(per_image[1].find("\"boxes\": 2, \"fruits\": 2, \"true_positives\": 1"), std::string::npos) << per_image[1];
-  const auto summary = lines_starting(out, "{\"summary\": ");
-  ASSERT_EQ(summary.size(), 1u) << out;
-  EXPECT_NE(summary[0].find("\"images\": 2, \"boxes\": 3, \"detections\": 3, \"true_positives\": 2"), std::string::npos)
-      << summary[0];
-  EXPECT_NEAR(numbers_of(summary[0], "precision").at(0), 2.0 / 3, 1e-4);
-  EXPECT_NEAR(numbers_of(summary[0], "recall").at(0), 2.0 / 3, 1e-4);
+  EXPECT_EQ(per_image[1]["boxes"], 2) << per_image[1];
+  EXPECT_EQ(per_image[1]["fruits"], 2) << per_image[1];
+  EXPECT_EQ(per_image[1]["true_positives"], 1) << per_image[1];
+  const auto summaries = objects_with(out, "summary");
+  ASSERT_EQ(summaries.size(), 1u) << out;
+  const Json& summary = summaries[0]["summary"];
+  EXPECT_EQ(summary["images"], 2) << summary;
+  EXPECT_EQ(summary["boxes"], 3) << summary;
+  EXPECT_EQ(summary["detections"], 3) << summary;
+  EXPECT_EQ(summary["true_positives"], 2) << summary;
+  EXPECT_NEAR(summary["precision"].get<double>(), 2.0 / 3, 1e-4);
+  EXPECT_NEAR(summary["recall"].get<double>(), 2.0 / 3, 1e-4);
 
   std::ofstream(dir / "bad.csv") << "image,img_w,img_h,x1,y1,x2,y2\na.png,640,480,1,2\n";
   EXPECT_EQ(run({"--evaluate", (dir / "bad.csv").string()}, &out), 2) << out;
@@ -166,10 +177,10 @@ TEST_F(DetectTool, FoldModelsScoreEachImageWithItsOwnModel) {
       << out;  // default mode canopy has no model
   EXPECT_NE(out.find("needs detector.mode learned"), std::string::npos) << out;
   EXPECT_EQ(run(with(learned, "good.csv"), &out), 0) << out;
-  const auto summary = lines_starting(out, "{\"summary\": ");
+  const auto summary = objects_with(out, "summary");
   ASSERT_EQ(summary.size(), 1u) << out;
-  EXPECT_EQ(numbers_of(summary[0], "images").at(0), 2);
-  EXPECT_EQ(numbers_of(summary[0], "f1").size(), 1u) << summary[0];
+  EXPECT_EQ(summary[0]["summary"]["images"], 2);
+  EXPECT_TRUE(summary[0]["summary"]["f1"].is_number()) << summary[0];
 }
 
 }  // namespace

@@ -24,8 +24,8 @@
 #include "canopen/protocol.hpp"
 #include "geometry/pose_msg.hpp"
 #include "runtime/channels.hpp"
-#include "runtime/dispatcher.hpp"
 #include "runtime/log_io.hpp"
+#include "runtime/sim_runner.hpp"
 #include "signing.hpp"
 #include "simdrive/sim_drives_node.hpp"
 
@@ -62,13 +62,15 @@ RobotLinkConfig default_config() {
   return c;
 }
 
-// Robot link node + simulated drives, one shared manual clock: drives step
-// every 1 ms, the node's timers (SYNC every 10 ms) fire at their due times.
-class Rig final : public rt::Dispatcher {
+// Robot link node on the one in-memory runner (rt::SimRunner, replay's
+// delivery order) + simulated drives on its clock: each millisecond the
+// node's timers (SYNC every 10 ms) fire at their due times, then the drives
+// step and the node's CAN descriptor is offered to it.
+class Rig final : public rt::SimRunner {
  public:
   // `before_link` runs on the drives before the robot link is on the bus.
   explicit Rig(RobotLinkConfig config, const std::function<void(simdrive::SimDriveSet&)>& before_link = {})
-      : rt::Dispatcher(""), model_(config.model) {
+      : rt::SimRunner(kStart), model_(config.model) {
     auto& drive_end = wire_.attach();
     // The drives the robot link is configured for, read as harvest-sim-drives reads its drive file.
     std::string drives_yaml = "drives:\n";
@@ -87,23 +89,21 @@ class Rig final : public rt::Dispatcher {
     auto& link_end = wire_.attach();
     node_ = std::make_unique<RobotLinkNode>(std::move(config), std::make_unique<BusRef>(link_end));
     add(*node_);
-    attach_all();
+    SimRunner::start();
   }
 
-  rt::Micros now() const override { return now_; }
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override {
     const auto* p = static_cast<const uint8_t*>(data);
     if (channel == ch::kRobotState) {
       states_.push_back(*rt::decode<robot_state_t>(std::vector<uint8_t>(p, p + size)));
       if (on_state_) on_state_(states_.back());
     }
+    SimRunner::publish_bytes(channel, data, size);
   }
   void watch_fd(int fd, std::function<void()> on_readable) override {
     EXPECT_EQ(fd, BusRef::kFakeFd);
-    on_readable_ = std::move(on_readable);
+    SimRunner::watch_fd(fd, std::move(on_readable));
   }
-  void unwatch_fd(int) override {}
-  void request_stop(int) override {}
 
   // Commands go in signed as the shipped config expects: motion by the
   // controller, the rest by an operator (docs/security.md).
@@ -118,25 +118,21 @@ class Rig final : public rt::Dispatcher {
   }
   template <class Msg>
   void inject_as_is(const std::string& channel, const Msg& msg) {
-    const auto bytes = rt::encode(msg);
-    deliver(channel, bytes.data(), bytes.size(), now_);
+    SimRunner::inject(channel, msg);
   }
-  const rt::Clock& clock() const { return clock_; }
 
   // Runs for `seconds` of simulated time; `each_ms` (if set) runs every millisecond first.
   void run(double seconds, const std::function<void()>& each_ms = {}) {
-    const rt::Micros end = now_ + rt::from_seconds(seconds);
-    while (now_ < end) step(each_ms);
+    const rt::Micros end = now() + rt::from_seconds(seconds);
+    while (now() < end) step(each_ms);
   }
-  // The link falls silent (its process killed): only the drives go on.
+  // The link falls silent (its process killed): none of its timers fires
+  // again, its bus is not read; only the drives go on.
   void run_without_link(double seconds, const std::function<void()>& each_ms = {}) {
-    const rt::Micros end = now_ + rt::from_seconds(seconds);
-    while (now_ < end) {
-      now_ += 1000;
-      drives_->advance(now_);
-      drives_->drain(now_);
-      if (each_ms) each_ms();
-    }
+    timers_ = rt::TimerQueue();
+    unwatch_fd(BusRef::kFakeFd);
+    const rt::Micros end = now() + rt::from_seconds(seconds);
+    while (now() < end) step(each_ms);
   }
   // Another device on the bus (another master, an attacker) sends a frame.
   void forge(uint32_t id, std::vector<uint8_t> data) {
@@ -149,8 +145,8 @@ class Rig final : public rt::Dispatcher {
   }
   // Runs until pred() or `max_seconds`; returns pred().
   bool run_until(const std::function<bool()>& pred, double max_seconds, const std::function<void()>& each_ms = {}) {
-    const rt::Micros end = now_ + rt::from_seconds(max_seconds);
-    while (!pred() && now_ < end) step(each_ms);
+    const rt::Micros end = now() + rt::from_seconds(max_seconds);
+    while (!pred() && now() < end) step(each_ms);
     return pred();
   }
 
@@ -180,14 +176,13 @@ class Rig final : public rt::Dispatcher {
 
  private:
   void step(const std::function<void()>& each_ms) {
-    now_ += 1000;
-    drives_->advance(now_);
-    drives_->drain(now_);
-    if (on_readable_) on_readable_();
+    SimRunner::run_until(now() + 1000);
+    drives_->advance(now());
+    drives_->drain(now());
+    poll();
     if (each_ms) each_ms();
-    timers_.fire_due(now_, [this](rt::Micros t) { now_ = t; });
-    drives_->drain(now_);
-    if (on_readable_) on_readable_();
+    drives_->drain(now());
+    poll();
   }
 
   kinematics::ArmModel model_;
@@ -195,13 +190,10 @@ class Rig final : public rt::Dispatcher {
   can::MemoryBus* intruder_ = nullptr;
   std::unique_ptr<simdrive::SimDriveSet> drives_;
   std::unique_ptr<RobotLinkNode> node_;
-  rt::Micros now_ = kStart;
-  harvest::testing::RunnerClock clock_{*this};
-  harvest::testing::CommandSigner controller_{harvest::testing::kController, &clock_};
-  harvest::testing::CommandSigner operator_{harvest::testing::kOperator, &clock_};
+  harvest::testing::CommandSigner controller_{harvest::testing::kController, &clock()};
+  harvest::testing::CommandSigner operator_{harvest::testing::kOperator, &clock()};
   std::vector<robot_state_t> states_;
   std::function<void(const robot_state_t&)> on_state_;
-  std::function<void()> on_readable_;
 };
 
 harvest::robot_command_t twist_command(double vx, double vy, double vz, double wx = 0, double wy = 0, double wz = 0) {
@@ -651,7 +643,7 @@ TEST(RobotLinkNode, DrivesStopThemselvesWhenTheLinkFallsSilent) {
       ASSERT_NEAR(Eigen::Vector3d(s.tool_twist.linear[0], s.tool_twist.linear[1], s.tool_twist.linear[2]).norm(), 0.381,
                   0.01)
           << dir.transpose() << " after " << moving << " s";
-      const auto tool = [&] {
+      const auto tool = [&]() -> Eigen::Vector3d {  // a copy: translation() is a view of the temporary pose
         Eigen::VectorXd q(7);
         for (int i = 0; i < 7; ++i) q[i] = rig.drives().drive(static_cast<std::size_t>(i)).position();
         return kinematics::tool_pose(rig.model(), q).translation();

@@ -202,6 +202,28 @@ TEST(Config, RecursiveAliasesAliasBombsAndDeepNestingAreRefused) {
   EXPECT_THROW(over.apply_override("b=" + nested(70).substr(3)), Error);
 }
 
+// A CR, a CR LF and an LF are one line break (YAML 1.2, 5.4). yaml-cpp took
+// "x: :" followed by CR CR as x = ":" and emitted "x: :", which it refuses
+// (config_loader_fuzz): the text is read with LF breaks, so a file loads the
+// same whichever its line ends, and what it emits loads again.
+TEST(Config, CrAndCrLfLineEndsReadAsLfAndTheEmittedTextLoadsAgain) {
+  for (const std::string eol : {"\n", "\r\n", "\r"}) {
+    const std::string text = "a: 1" + eol + "b:" + eol + "  c: [1, 2]" + eol + "d: |" + eol + "  x" + eol + "  y" + eol;
+    const auto doc = Document::load_string(text, "e.yaml");
+    EXPECT_EQ(doc.root().get<int>("a", 0), 1);
+    EXPECT_EQ(doc.root().child("b").numbers("c"), (std::vector<double>{1, 2}));
+    EXPECT_EQ(doc.root().get<std::string>("d", ""), "x\ny\n") << "a block scalar's breaks are LF";
+    EXPECT_NO_THROW(Document::load_string(doc.emit(), "effective"));
+  }
+  // The fuzzer's input: a syntax error whatever the line ends, on the line an editor shows.
+  EXPECT_EQ(error_of([] { Document::load_string("\r\r\r\r\r\r\nx: :\r\r\n", "f.yaml"); }),
+            "f.yaml:7: YAML syntax error: illegal map value");
+  EXPECT_EQ(error_of([] { Document::load_string("x: :\n\n", "f.yaml"); }), "f.yaml:1: YAML syntax error: illegal map value");
+  auto over = Document::load_string("a: 1\n", "o.yaml");
+  over.apply_override("a=[1,\r\n 2]");
+  EXPECT_EQ(over.root().numbers("a"), (std::vector<double>{1, 2}));
+}
+
 TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
   // yaml-cpp would load them and emit a configuration it cannot read back
   // (found by config_loader_fuzz).

@@ -10,6 +10,7 @@
 #include "endeffector/bridge_node.hpp"
 #include "endeffector/parser.hpp"
 #include "runtime/dispatcher.hpp"
+#include "runtime/sim_runner.hpp"
 #include "signing.hpp"
 
 namespace ee = harvest::endeffector;
@@ -47,8 +48,8 @@ constexpr Micros kT0 = 1'700'000'000 * kSecond;  // an arbitrary epoch time
 // The device double: a board emulator behind a fake byte stream.
 
 struct FakeDevice {
-  explicit FakeDevice(const rt::ManualClock& c) : clock(c) {}
-  const rt::ManualClock& clock;
+  explicit FakeDevice(const rt::Clock& c) : clock(c) {}
+  const rt::Clock& clock;
   ee::BoardEmulator board;
   bool accept = true;         // false: connection refused
   bool hang_connect = false;  // true: the connect never completes
@@ -121,34 +122,24 @@ class FakeLink final : public ee::ByteStream {
 };
 
 // ---------------------------------------------------------------------------
-// A runner for one node on a manual clock: timers fire at their due times,
-// the watched descriptor is offered to the node every millisecond.
+// The bridge on the one in-memory runner (rt::SimRunner, replay's delivery
+// order): timers fire at their due times, the device's descriptor is offered
+// to the node every millisecond.
 
-class TestRunner final : public rt::Dispatcher {
+class TestRunner final : public rt::SimRunner {
  public:
-  TestRunner() : Dispatcher("") { clock.set(kT0); }
-  rt::ManualClock clock;
-
-  struct Published {
-    std::string channel;
-    std::vector<uint8_t> bytes;
-    Micros time;
-  };
-  std::vector<Published> published;
+  TestRunner() : SimRunner(kT0) {}
+  const rt::Clock& clock = SimRunner::clock();
 
   void start(rt::Node& node) {
     add(node);
-    attach_all();
+    SimRunner::start();
   }
-  void run_for(Micros d) { run_until(clock.now() + d); }
+  void run_for(Micros d) { run_until(now() + d); }
   void run_until(Micros until) {
-    while (clock.now() < until) {
-      const Micros t = std::min(until, clock.now() + kMilli);
-      timers_.fire_due(t, [&](Micros due) { clock.set(due); });
-      clock.set(t);
-      const auto watched = watched_;  // a callback may unwatch
-      for (auto& [fd, cb] : watched)
-        if (watched_.count(fd)) cb();
+    while (now() < until) {
+      SimRunner::run_until(std::min(until, now() + kMilli));
+      poll();
     }
   }
   // Gripper commands go in signed by the controller, e-stops by an operator
@@ -164,35 +155,17 @@ class TestRunner final : public rt::Dispatcher {
   harvest::testing::CommandSigner controller{harvest::testing::kController, &clock};
   harvest::testing::CommandSigner operator_signer{harvest::testing::kOperator, &clock};
   template <class Msg>
-  void inject_as_is(const std::string& channel, Msg msg) {
-    std::vector<uint8_t> b(static_cast<std::size_t>(msg.getEncodedSize()));
-    msg.encode(b.data(), 0, static_cast<int>(b.size()));
-    deliver(channel, b.data(), b.size(), clock.now());
+  void inject_as_is(const std::string& channel, const Msg& msg) {
+    SimRunner::inject(channel, msg);
   }
+  // What the bridge published on `channel` from `since` on.
   template <class Msg>
   std::vector<Msg> messages(const std::string& channel, Micros since = 0) const {
     std::vector<Msg> out;
-    for (const auto& p : published) {
-      if (p.channel != channel || p.time < since) continue;
-      Msg m;
-      EXPECT_GE(m.decode(p.bytes.data(), 0, static_cast<int>(p.bytes.size())), 0);
-      out.push_back(m);
-    }
+    for (auto& [time, m] : SimRunner::messages<Msg>(channel))
+      if (time >= since) out.push_back(std::move(m));
     return out;
   }
-  bool watching() const { return !watched_.empty(); }
-
-  Micros now() const override { return clock.now(); }
-  void publish_bytes(const std::string& channel, const void* data, std::size_t size) override {
-    const auto* p = static_cast<const uint8_t*>(data);
-    published.push_back({channel, std::vector<uint8_t>(p, p + size), clock.now()});
-  }
-  void watch_fd(int fd, std::function<void()> cb) override { watched_[fd] = std::move(cb); }
-  void unwatch_fd(int fd) override { watched_.erase(fd); }
-  void request_stop(int) override {}
-
- private:
-  std::map<int, std::function<void()>> watched_;
 };
 
 // A two-knot curve whose values are easy to work out by hand:

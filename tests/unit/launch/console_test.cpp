@@ -25,6 +25,33 @@ TEST(Console, RendersOneRowPerProcess) {
   EXPECT_EQ(r2.find("-1"), std::string::npos);  // no pid shows as '-'
 }
 
+// The sheriff's table: every host's processes, HOST first, CPU and memory measured by the deputies.
+TEST(Console, RowsOfSeveralHostsHaveAHostColumnAndCpuAndMemory) {
+  StatusRow a{"robot-link", "robot", "running", 1234, 0, "", "0.3 s", "ok"};
+  a.host = "robot";
+  a.cpu_percent = 4.4;
+  a.rss_bytes = 12 << 20;
+  StatusRow b{"detector-hand", "vision", "DEPUTY LOST", 4310, 1, "143", "0.1 s", ""};
+  b.host = "vision";
+  const std::string t = render_table({a, b});
+  std::istringstream in(t);
+  std::string header, r1, r2;
+  std::getline(in, header);
+  std::getline(in, r1);
+  std::getline(in, r2);
+  EXPECT_EQ(header.rfind("HOST   NAME", 0), 0u) << t;
+  EXPECT_NE(header.find("STATE         CPU   MEM     PID"), std::string::npos) << t;
+  EXPECT_EQ(r1.rfind("robot  robot-link", 0), 0u) << t;
+  EXPECT_NE(r1.find("running       4%    12 MB   1234"), std::string::npos) << t;
+  EXPECT_NE(r2.find("DEPUTY LOST   -     -       4310"), std::string::npos) << t;
+  // One host's own table has neither.
+  a.host.clear();
+  a.cpu_percent = -1;
+  a.rss_bytes = -1;
+  EXPECT_EQ(render_table({a}).rfind("NAME", 0), 0u);
+  EXPECT_EQ(render_table({a}).find("CPU"), std::string::npos);
+}
+
 TEST(Console, PlainModePrintsLinesOnlyAndLiveModeRedrawsTheTable) {
   std::ostringstream plain;
   Console c(plain, false);

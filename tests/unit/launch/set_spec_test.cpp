@@ -113,6 +113,10 @@ processes:
   ASSERT_EQ(robot.size(), 1u);
   EXPECT_EQ(s.processes[robot[0]].name, "link");
   EXPECT_EQ(select_group(s, "").size(), 4u);
+  // Several groups on one host (a deputy running the simulator and the robot).
+  EXPECT_EQ(select_group(s, "robot,default").size(), 4u);
+  EXPECT_EQ(select_group(s, ",robot,nope,"), robot);
+  EXPECT_TRUE(select_group(s, "nope").empty());
 }
 
 TEST(SetSpec, RestartDelayBacksOffAndGivesUp) {

@@ -90,7 +90,7 @@ TEST(Export, JsonLinesWithFieldSelection) {
   std::istringstream is(os.str());
   std::string line;
   std::getline(is, line);
-  EXPECT_EQ(line, "{\"log_utime\":1000000,\"header.utime\":1000000,\"range_m\":0}");
+  EXPECT_EQ(line, "{\"log_utime\":1000000,\"header.utime\":1000000,\"range_m\":0.0}");  // a float stays a float
   std::getline(is, line);
   EXPECT_EQ(line.rfind("{\"log_utime\":1010000,\"header.utime\":1010000,\"range_m\":0.00999999978", 0), 0u) << line;
   EXPECT_THROW(lt::export_channel(sample_log(), "NOPE", o, os), std::runtime_error);

@@ -118,15 +118,21 @@ TEST(Replay, TimersFireAtLogTime) {
   for (std::size_t i = 1; i < all.size(); ++i) EXPECT_LE(all[i - 1].timestamp, all[i].timestamp);
 }
 
+// make_input() plus 10 recorded OUT messages (value 9) 3 s in, as a log of a
+// set whose first node published OUT would hold them.
+void write_input_with_recorded_out(const std::filesystem::path& file) {
+  auto in = make_input();
+  for (int i = 0; i < 10; ++i) in.push_back({kT0 + 3'000'000 + i, "OUT", rt::encode(ht::make_ir(0, 999, 9.f))});
+  std::sort(in.begin(), in.end(), [](auto& a, auto& b) { return a.timestamp < b.timestamp; });
+  rt::write_log(file, in);
+}
+
 // Isolated (each node against the recording): the second node gets the
 // recorded OUT at its recorded times, not the first node's regenerated one,
 // and what the first publishes still goes to the output log.
 TEST(Replay, IsolatedNodesReceiveTheRecordingNotEachOther) {
   TempDir dir;
-  auto in = make_input();
-  for (int i = 0; i < 10; ++i) in.push_back({kT0 + 3'000'000 + i, "OUT", rt::encode(ht::make_ir(0, 999, 9.f))});
-  std::sort(in.begin(), in.end(), [](auto& a, auto& b) { return a.timestamp < b.timestamp; });
-  rt::write_log(dir / "in.log", in);
+  write_input_with_recorded_out(dir / "in.log");
   ScaleNode first("IN", "OUT", 2.0, false), second("OUT", "OUT2", 3.0, false);
   rt::ReplayOptions opt;
   opt.input_log = dir / "in.log";
@@ -157,12 +163,9 @@ TEST(Replay, TailKeepsTimersGoing) {
 
 TEST(Replay, NodesChainAndRecordedOutputsAreRegenerated) {
   TempDir dir;
-  auto in = make_input();
   // The log also holds what a previous version of the first node published
   // on OUT: it must not reach the second node, which gets the regenerated OUT.
-  for (int i = 0; i < 10; ++i) in.push_back({kT0 + 3'000'000 + i, "OUT", rt::encode(ht::make_ir(0, 999, 9.f))});
-  std::sort(in.begin(), in.end(), [](auto& a, auto& b) { return a.timestamp < b.timestamp; });
-  rt::write_log(dir / "in.log", in);
+  write_input_with_recorded_out(dir / "in.log");
   ScaleNode first("IN", "OUT", 2.0, false), second("OUT", "OUT2", 3.0, false);
   const auto res = replay(dir / "in.log", dir / "out.log", {&first, &second});
   EXPECT_EQ(res.events_skipped, 10);

@@ -116,4 +116,47 @@ TEST(SimRunner, KeepsInjectedAndPublishedMessagesInBusOrder) {
   EXPECT_EQ(node.received, 2);
 }
 
+// A node reading a device: its descriptor is offered on poll() at the current
+// time, each callback's messages delivered before the next; a node that
+// stops watching (its device closed) is not offered it again.
+class DeviceNode final : public rt::Node {
+ public:
+  DeviceNode() : rt::Node("device") {}
+  int reads = 0;
+  bool close_after_read = false;
+
+ protected:
+  void on_attach() override {
+    advertise("DEVICE");
+    ctx().watch_fd(7, [this] {
+      ++reads;
+      auto m = ht::make_ir(now(), reads, 0.1f * reads);
+      publish("DEVICE", m);
+      if (close_after_read) ctx().unwatch_fd(7);
+    });
+  }
+};
+
+TEST(SimRunner, WatchedDescriptorsAreOfferedOnPollAndNotAfterUnwatch) {
+  rt::SimRunner sim(kT0);
+  DeviceNode device;
+  ht::ScaleNode reader("DEVICE", "OUT", 2.0, false);
+  sim.add(device);
+  sim.add(reader);
+  sim.start();
+  EXPECT_TRUE(sim.watching());
+  EXPECT_EQ(device.reads, 0) << "nothing offered before a poll";
+  sim.run_until(kT0 + 1000);
+  sim.poll();
+  ASSERT_EQ(device.reads, 1);
+  const auto outs = sim.messages<harvest::ir_range_t>("OUT");
+  ASSERT_EQ(outs.size(), 1u) << "the device's message reached the reader within the poll";
+  EXPECT_EQ(outs[0].first, kT0 + 1000);
+  device.close_after_read = true;
+  sim.poll();
+  sim.poll();
+  EXPECT_EQ(device.reads, 2);
+  EXPECT_FALSE(sim.watching());
+}
+
 }  // namespace

@@ -5,6 +5,7 @@
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
+#include "runtime/json.hpp"
 #include "sim/sim_node.hpp"
 
 namespace harvest::sim {
@@ -80,7 +81,10 @@ TEST(Evaluation, ControllerCycleTimesAreMatchedByItsFruitEstimate) {
   EXPECT_NEAR(e.mean_error_mm, 15.0, 1e-6);
   // 10 s of truth for 2 fruit picked: 5 s per fruit, in the JSON as well.
   EXPECT_NEAR(e.time_per_pick_s, 5.0, 1e-9);
-  EXPECT_NE(to_json(e).find("\"time_per_pick_s\": 5.00"), std::string::npos) << to_json(e);
+  const auto j = rt::Json::parse(to_json(e));
+  EXPECT_EQ(j["time_per_pick_s"], 5.0) << to_json(e);
+  EXPECT_EQ(j["mean_final_error_mm"], 15.0);
+  EXPECT_EQ(j["fruit"][1]["cycle_time_s"], 6.0);
 }
 
 // A tree benchmark: three runs (seeds 11, 12, 13) scored one by one, then across runs. Run 0 picks both
@@ -120,9 +124,15 @@ TEST(Evaluation, EachRunsFiguresAndTheirSpreadAcrossRuns) {
   EXPECT_EQ(e.across_runs.worst_run, 2);
   EXPECT_NEAR(e.across_runs.best_success, 1.0, 1e-12);
   EXPECT_NEAR(e.across_runs.std_success, 0.5, 1e-12);
-  const std::string json = to_json(e);
-  EXPECT_NE(json.find("{\"run\": 1, \"seed\": 12, \"reachable\": 2, \"picked\": 1,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"worst_run\": 2"), std::string::npos) << json;
+  const auto json = rt::Json::parse(to_json(e));
+  const auto& run1 = json["per_run"][1];
+  EXPECT_EQ(run1["run"], 1);
+  EXPECT_EQ(run1["seed"], 12);
+  EXPECT_EQ(run1["reachable"], 2);
+  EXPECT_EQ(run1["picked"], 1);
+  EXPECT_EQ(run1["success_rate"], 0.5);
+  EXPECT_EQ(json["across_runs"]["worst_run"], 2);
+  EXPECT_EQ(json["across_runs"]["std_success_rate"], 0.5);
   const std::string table = to_table(e);
   EXPECT_NE(table.find("across 3 runs: success mean 50.0 %, worst 0.0 % (run 2)"), std::string::npos) << table;
 }

@@ -1,0 +1,220 @@
+#include "calib/calibrate_cli.hpp"
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <thread>
+
+#include "calib/calibration_node.hpp"
+#include "calib/report.hpp"
+#include "geometry/transform_file.hpp"
+#include "runtime/channels.hpp"
+#include "runtime/live_runner.hpp"
+#include "runtime/replay_runner.hpp"
+
+namespace harvest::calib {
+namespace {
+
+std::atomic<rt::LiveRunner*> g_live{nullptr};
+extern "C" void stop_live(int) {
+  if (auto* r = g_live.load()) r->request_stop(0);
+}
+
+struct Source {
+  std::string log, lcm_url, prefix;
+  double duration_s = 0.0;
+};
+
+// Runs the node over the log, or live until it has its views, the duration
+// is over or Ctrl-C.
+void collect(CalibrationNode& node, const Source& src, std::ostream& err) {
+  node.on_view = [&err, &node](const BoardView& v, Verdict verdict) {
+    if (verdict == Verdict::kAccepted)
+      err << "view " << node.collector().views().size() << ": " << v.ids.size() << " corners, sharpness "
+          << static_cast<int>(v.sharpness) << (v.mirrored ? ", mirrored" : "") << "\n";
+  };
+  if (!src.log.empty()) {
+    rt::ReplayOptions ro;
+    ro.input_log = src.log;
+    ro.prefix = src.prefix;
+    rt::ReplayRunner runner(ro);
+    runner.add(node);
+    runner.run();
+  } else {
+    rt::LiveOptions lo;
+    lo.lcm_url = src.lcm_url;
+    lo.prefix = src.prefix;
+    rt::LiveRunner runner(lo);
+    runner.add(node);
+    g_live = &runner;
+    auto* old_int = std::signal(SIGINT, stop_live);
+    auto* old_term = std::signal(SIGTERM, stop_live);
+    std::thread timer;
+    std::atomic<bool> done{false};
+    if (src.duration_s > 0)
+      timer = std::thread([&] {
+        const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(src.duration_s);
+        while (!done && std::chrono::steady_clock::now() < end)
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        if (!done) runner.request_stop(0);
+      });
+    err << "collecting views live; Ctrl-C when done\n";
+    runner.run();
+    done = true;
+    if (timer.joinable()) timer.join();
+    std::signal(SIGINT, old_int);
+    std::signal(SIGTERM, old_term);
+    g_live = nullptr;
+  }
+  node.finish();
+  err << node.collector().summary() << "\n";
+}
+
+void write_text(const std::string& path, const std::string& text, std::ostream& out) {
+  if (path.empty() || path == "-") {
+    out << text;
+    return;
+  }
+  std::ofstream f(path, std::ios::binary);
+  if (!(f << text)) throw std::runtime_error(path + ": cannot write");
+}
+
+void write_png(const std::string& path, const cv::Mat& img) {
+  if (path.empty()) return;
+  // No time chunks: the same report gives the same bytes.
+  if (!cv::imwrite(path, img, {cv::IMWRITE_PNG_COMPRESSION, 6})) throw std::runtime_error(path + ": cannot write");
+}
+
+std::string board_line(const BoardSpec& b) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%d x %d ChArUco board, %.1f mm squares, %.1f mm markers, %s", b.squares_x,
+                b.squares_y, b.square_m * 1000, b.marker_m * 1000, b.dictionary.c_str());
+  return buf;
+}
+
+}  // namespace
+
+int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  CLI::App app("Camera calibration from a recorded log or live LCM: intrinsics, hand-eye, fixed-camera extrinsics",
+               "harvest-calibrate");
+  app.require_subcommand(1);
+  Source src;
+  BoardSpec board;
+  std::vector<int> squares{board.squares_x, board.squares_y};
+  double square_mm = board.square_m * 1000, marker_mm = board.marker_m * 1000;
+  std::string output, report, date, intrinsics_file, camera, channel, state_channel = channels::kRobotState;
+  CalibrationNodeConfig cfg;
+  IntrinsicsOptions iopt;
+  PoseOptions popt;
+  int min_views = 0, max_views = 0;
+
+  auto common = [&](CLI::App* c) {
+    auto* g = c->add_option_group("source", "where the frames come from");
+    g->add_option("--log", src.log, "a recorded LCM log (replayed in process, as fast as the CPU allows)");
+    g->add_option("--lcm-url", src.lcm_url, "live LCM (collect until Ctrl-C, --views or --duration)");
+    g->require_option(1);
+    c->add_option("--prefix", src.prefix, "channel prefix of the recorded graph");
+    c->add_option("--channel", channel, "image channel (default: the procedure's camera)");
+    c->add_option("--squares", squares, "board squares across and down")->expected(2)->capture_default_str();
+    c->add_option("--square-mm", square_mm, "board square side [mm]")->capture_default_str();
+    c->add_option("--marker-mm", marker_mm, "board marker side [mm]")->capture_default_str();
+    c->add_option("--dictionary", board.dictionary, "ArUco dictionary of the board")
+        ->check(CLI::IsMember(board_dictionaries()))
+        ->capture_default_str();
+    c->add_option("-o,--output", output, "the calibration file to write (default: standard output)");
+    c->add_option("--report", report, "a PNG report: error vectors over the image, per-view residuals");
+    c->add_option("--date", date, "the date in the file's comment (default: the last frame's time, UTC)");
+    c->add_option("--min-views", min_views, "refuse to solve from fewer views")->check(CLI::PositiveNumber);
+    c->add_option("--views", max_views, "stop after this many accepted views")->check(CLI::PositiveNumber);
+    c->add_option("--duration", src.duration_s, "live: stop collecting after this many seconds");
+    c->add_option("--min-sharpness", cfg.collect.min_sharpness,
+                  "a view with a lower variance of the Laplacian over the board is blurred")
+        ->capture_default_str();
+  };
+  auto* intr = app.add_subcommand("intrinsics", "focal length, principal point, 5-coefficient distortion");
+  intr->add_option("camera", camera, "fixed or hand")->required()->check(CLI::IsMember({"fixed", "hand"}));
+  common(intr);
+  auto* he = app.add_subcommand("hand-eye", "the camera-in-hand pose on the tool, arm moved about a fixed board");
+  he->add_option("--intrinsics", intrinsics_file, "the hand camera's calibration")->required();
+  he->add_option("--robot-state-channel", state_channel, "arm state channel")->capture_default_str();
+  common(he);
+  auto* ex = app.add_subcommand("extrinsics", "the fixed camera in the base frame, a board carried by the tool");
+  ex->add_option("--intrinsics", intrinsics_file, "the fixed camera's calibration")->required();
+  ex->add_option("--robot-state-channel", state_channel, "arm state channel")->capture_default_str();
+  common(ex);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e, out, err);
+    return rc == 0 ? 0 : 2;
+  }
+
+  try {
+    board.squares_x = squares[0];
+    board.squares_y = squares[1];
+    board.square_m = square_mm / 1000;
+    board.marker_m = marker_mm / 1000;
+    cfg.board = board;
+    cfg.collect.max_views = max_views;
+    const bool arm = !intr->parsed();
+    if (channel.empty())
+      channel = intr->parsed() ? (camera == "fixed" ? channels::kCameraFixed : channels::kCameraHand)
+                : he->parsed() ? channels::kCameraHand
+                               : channels::kCameraFixed;
+    cfg.image_channel = channel;
+    if (arm) cfg.robot_state_channel = state_channel;
+    if (min_views > 0) iopt.min_views = popt.min_views = min_views;
+
+    geometry::CameraModel cam;
+    if (arm) cam = geometry::CameraModel::load(intrinsics_file);
+    CalibrationNode node(cfg);
+    collect(node, src, err);
+    const auto& views = node.collector().views();
+    const std::string when = date.empty() ? utc_date(node.last_frame_utime()) : date;
+    const std::string source = src.log.empty() ? "live LCM" : src.log;
+    const std::string head = "harvest-calibrate " +
+                             std::string(intr->parsed() ? "intrinsics " + camera
+                                         : he->parsed() ? "hand-eye"
+                                                        : "extrinsics") +
+                             ", " + when + ", " + channel + " from " + source + "\n" + board_line(board) + "; " +
+                             node.collector().summary() + "\n";
+    if (intr->parsed()) {
+      const IntrinsicsResult r = solve_intrinsics(views, node.board(), iopt);
+      const std::string text = intrinsics_comment(r);
+      write_text(output, camera_yaml(r.model, head + text), out);
+      write_png(report, report_image("intrinsics " + camera + ": RMS " + std::to_string(r.rms_px).substr(0, 6) +
+                                         " px, " + std::to_string(views.size()) + " views",
+                                     views.front().image_size, r.views, r.uncovered, false));
+      err << text;
+    } else if (he->parsed()) {
+      const HandEyeResult r = solve_hand_eye(views, node.board(), cam, popt);
+      const std::string text = hand_eye_comment(r);
+      write_text(output,
+                 geometry::transform_yaml(r.camera_in_tool, head + "intrinsics " + intrinsics_file + "\n" + text), out);
+      write_png(report, report_image("hand-eye: RMS " + std::to_string(r.rms_px).substr(0, 6) +
+                                         " px through the arm, " + std::to_string(views.size()) + " views",
+                                     views.front().image_size, r.views, {}, true));
+      err << text;
+    } else {
+      const ExtrinsicsResult r = solve_extrinsics(views, node.board(), cam, popt);
+      const std::string text = extrinsics_comment(r);
+      write_text(output,
+                 geometry::transform_yaml(r.camera_in_base, head + "intrinsics " + intrinsics_file + "\n" + text), out);
+      write_png(report, report_image("extrinsics: RMS " + std::to_string(r.rms_px).substr(0, 6) +
+                                         " px through the arm, " + std::to_string(views.size()) + " views",
+                                     views.front().image_size, r.views, {}, true));
+      err << text;
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    err << "harvest-calibrate: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace harvest::calib
