@@ -222,6 +222,14 @@ std::string normalise_line_breaks(const std::string& text) {
 // effective configuration) comes after this one.
 constexpr std::size_t kMaxDepth = 64;
 constexpr std::size_t kMaxValues = 100'000;
+// YAML allows an implicit key of at most 1024 characters (1.2, 7.4.2);
+// yaml-cpp emits a longer one implicitly anyway and then refuses its own
+// text (config_loader_fuzz: an override path part of 958 bytes). No
+// component has a key a tenth of this long.
+constexpr std::size_t kMaxKeyLength = 256;
+std::string key_too_long(const std::string& key) {
+  return "key '" + key.substr(0, 40) + "...' is longer than " + std::to_string(kMaxKeyLength) + " characters";
+}
 struct TreeWalk {
   const std::string& name;
   std::size_t values = 0;
@@ -245,6 +253,8 @@ void check_tree(const YAML::Node& n, TreeWalk& walk, std::size_t depth) {
                     ": a key must be a plain value, not a list or a mapping");
       if (kv.first.IsScalar()) {
         const int key_line = kv.first.Mark().line + 1;
+        if (kv.first.Scalar().size() > kMaxKeyLength)
+          throw Error(walk.name + ":" + std::to_string(key_line) + ": " + key_too_long(kv.first.Scalar()));
         const auto [it, fresh] = line_of.emplace(kv.first.Scalar(), key_line);
         if (!fresh)
           throw Error(walk.name + ":" + std::to_string(key_line) + ": key '" + kv.first.Scalar() +
@@ -315,6 +325,8 @@ void Document::apply_override(const std::string& raw_assignment) {
     throw Error("override '" + assignment + "': empty key in KEY.PATH");
   if (parts.size() > kMaxOverrideDepth)
     throw Error("override '" + assignment + "': KEY.PATH deeper than " + std::to_string(kMaxOverrideDepth) + " levels");
+  for (const auto& p : parts)
+    if (p.size() > kMaxKeyLength) throw Error("override: " + key_too_long(p));
   // yaml-cpp nodes are handles; walk with fresh handles so we never rebind.
   std::vector<YAML::Node> chain{tree_};
   for (std::size_t i = 0; i + 1 < parts.size(); ++i) {

@@ -11,6 +11,7 @@
 #include <functional>
 #include <harvest/config_snapshot_t.hpp>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -73,7 +74,7 @@ std::vector<LoggedConfig> logged_configs(const std::string& log, const std::stri
     // A restarted process publishes again; its first snapshot is the one the
     // recording started with.
     if (!seen.insert(m.instance).second) continue;
-    out.push_back({m.process, m.instance, m.config_path, m.yaml, m.command_line, r.timestamp});
+    out.push_back({m.process, m.instance, m.config_path, m.yaml, m.command_line, r.timestamp, m.header.utime});
   }
   return out;
 }
@@ -90,6 +91,7 @@ std::vector<NodeSpec> nodes_from_configs(const std::vector<LoggedConfig>& config
     // beside the file it was loaded from, as they did live.
     s.config = c.config_path.empty() ? "<CONFIG of " + s.label + ">" : c.config_path;
     s.yaml = c.yaml.empty() ? "{}" : c.yaml;
+    s.start = c.start();
     out.push_back(std::move(s));
   }
   return out;
@@ -140,13 +142,11 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       out << "nodes from the log's CONFIG snapshots: " << used << "\n";
       if (!skipped.empty()) out << "  not replayable (devices, tools): " << skipped << "\n";
       // Live, each process saw only what was published after it started (its
-      // CONFIG); the recording began earlier. Replay from the moment the last
-      // of them was up, so every node sees what its live twin saw, and
-      // compare from there.
-      rt::Micros start = 0;
-      for (const auto& c : configs)
-        if (std::any_of(specs.begin(), specs.end(), [&](const NodeSpec& s) { return s.label == c.instance; }))
-          start = std::max<rt::Micros>(start, c.log_time);
+      // CONFIG); the recording began earlier. Each node is attached at its own
+      // process's start, so it sees what its live twin saw and runs its timers
+      // from the same moment; the replay begins with the first of them.
+      rt::Micros start = std::numeric_limits<rt::Micros>::max();
+      for (const auto& s : specs) start = std::min<rt::Micros>(start, s.start);
       std::vector<rt::LogRecord> from_start;
       std::size_t before = 0;
       for (auto& r : rt::read_log(o.input_log)) {
@@ -158,8 +158,9 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       input_log = o.output_log + ".input";
       rt::write_log(input_log, from_start);
       own_nodes_start = start;
-      out << "  replayed from the last replayed process's start (CONFIG at log time " << start << "): " << before
-          << " earlier events left out\n";
+      out << "  each node from its process's start (CONFIG snapshot, log time):";
+      for (const auto& s : specs) out << " " << s.label << " " << s.start;
+      out << "; " << before << " earlier events left out\n";
       // header.seq counts a process's messages since it started, before that moment too.
       compare_options.add_ignore("*.header.seq");
       compare_options.add_ignore("*.header.source_seq");
@@ -237,7 +238,12 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
     ro.isolated = own_nodes_start.has_value();  // each node against what its live twin received
     rt::ReplayRunner runner(ro);
     for (auto& b : built)
-      for (auto& n : b->nodes) runner.add(*n);
+      for (auto& n : b->nodes) {
+        if (ro.isolated && b->spec.start > 0)
+          runner.add_from(*n, b->spec.start);
+        else
+          runner.add(*n);
+      }
     // The tool's own speed (not the nodes' clock, which is the log's): wall and CPU time of the run.
     const auto wall0 = std::chrono::steady_clock::now();
     const std::clock_t cpu0 = std::clock();

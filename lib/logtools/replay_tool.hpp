@@ -35,13 +35,20 @@ const std::vector<ReplayableNode>& node_registry();
 
 struct NodeSpec {
   std::string label, process, config;
-  std::string yaml;  // non-empty: the configuration itself (a CONFIG snapshot), `config` only names it
+  std::string yaml;   // non-empty: the configuration itself (a CONFIG snapshot), `config` only names it
+  int64_t start = 0;  // from a CONFIG snapshot: when its process started (log time); 0: at the first event
 };
 
 // A process's CONFIG snapshot as recorded in a log (config_snapshot_t).
 struct LoggedConfig {
   std::string process, instance, config_path, yaml, command_line;
   int64_t log_time = 0;  // when it was recorded: the process was running and subscribed from then on
+  int64_t started = 0;   // header.utime: the process's clock when it attached its nodes
+  // When the process started, on the log's clock: `started` when it is a
+  // plausible reading of that clock (the same host), else the log time.
+  int64_t start() const {
+    return started > 0 && started <= log_time && log_time - started < 1'000'000 ? started : log_time;
+  }
 };
 // Every instance's first CONFIG snapshot on PREFIX+CONFIG, in log order.
 std::vector<LoggedConfig> logged_configs(const std::string& log, const std::string& prefix = "");

@@ -1,5 +1,6 @@
 #include "runtime/replay_runner.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -43,6 +44,22 @@ void ReplayRunner::fire_timers_until(Micros t) {
   result_.timers_fired += fire_until(t, [this] { return stop_; });
 }
 
+void ReplayRunner::add_from(Node& node, Micros start) {
+  const auto at = std::upper_bound(late_.begin(), late_.end(), start,
+                                   [](Micros t, const std::pair<Micros, Node*>& e) { return t < e.first; });
+  late_.insert(at, {start, &node});
+}
+
+void ReplayRunner::attach_due(Micros t) {
+  for (; late_attached_ < late_.size() && late_[late_attached_].first <= t && !stop_; ++late_attached_) {
+    const auto [start, node] = late_[late_attached_];
+    fire_timers_until(start);  // the others' timers due before it started
+    clock_.set(std::max(clock_.now(), start));
+    node->attach(*this);
+    drain();
+  }
+}
+
 ReplayResult ReplayRunner::run() {
   lcm::LogFile in(options_.input_log, "r");
   if (!in.good()) throw std::runtime_error("cannot open log " + options_.input_log);
@@ -60,10 +77,12 @@ ReplayResult ReplayRunner::run() {
   result_.first_time = ev->timestamp;
   attach_all();
   drain();
+  attach_due(ev->timestamp);  // those that started before the log's first event: at it
 
   for (; ev != nullptr && !stop_; ev = in.readNextEvent()) {
     if (options_.end_time && ev->timestamp > *options_.end_time) break;
     ++result_.events_read;
+    attach_due(ev->timestamp);
     fire_timers_until(ev->timestamp);
     if (stop_) break;
     clock_.set(std::max(clock_.now(), static_cast<Micros>(ev->timestamp)));

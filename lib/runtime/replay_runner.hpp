@@ -16,6 +16,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "runtime/logical_time_runner.hpp"
@@ -56,6 +57,12 @@ class ReplayRunner final : public LogicalTimeRunner {
 
   ReplayResult run();
 
+  // Attaches `node` at log time `start` instead of at the first event. For a
+  // recording's own processes (from their CONFIG snapshots): each started at
+  // its own moment, received only what was published after it, and ran its
+  // timers from then; its replayed twin does the same.
+  void add_from(Node& node, Micros start);
+
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
   void watch_fd(int, std::function<void()>) override;
   void unwatch_fd(int) override {}
@@ -63,12 +70,16 @@ class ReplayRunner final : public LogicalTimeRunner {
 
  private:
   void fire_timers_until(Micros t);
+  // Attaches the add_from() nodes due at or before `t`, each at its own time.
+  void attach_due(Micros t);
 
   ReplayOptions options_;
   std::unique_ptr<lcm::LogFile> out_;
   ReplayResult result_;
   bool stop_ = false;
   bool write_failed_ = false;
+  std::vector<std::pair<Micros, Node*>> late_;  // add_from(), ordered by start
+  std::size_t late_attached_ = 0;
 };
 
 }  // namespace harvest::rt

@@ -224,6 +224,24 @@ TEST(Config, CrAndCrLfLineEndsReadAsLfAndTheEmittedTextLoadsAgain) {
   EXPECT_EQ(over.root().numbers("a"), (std::vector<double>{1, 2}));
 }
 
+// YAML allows implicit keys of at most 1024 characters; yaml-cpp emits longer
+// ones implicitly and then refuses its own text (config_loader_fuzz: an
+// override path part of 958 bytes, tabs escaped to 2 characters each).
+TEST(Config, KeysLongerThan256CharactersAreRefusedInFilesAndOverrides) {
+  const std::string k256(256, 'k'), k257(257, 'k');
+  const auto doc = Document::load_string("? " + k256 + "\n: 1\n", "k.yaml");
+  EXPECT_EQ(doc.root().get<int>(k256, 0), 1);
+  EXPECT_NO_THROW(Document::load_string(doc.emit(), "effective"));
+  EXPECT_EQ(error_of([&] { Document::load_string("a: 1\n? " + k257 + "\n: 1\n", "k.yaml"); }),
+            "k.yaml:2: key '" + k257.substr(0, 40) + "...' is longer than 256 characters");
+  auto over = Document::load_string("a: 1\n", "o.yaml");
+  EXPECT_EQ(error_of([&] { over.apply_override("a." + k257 + "=1"); }),
+            "override: key '" + k257.substr(0, 40) + "...' is longer than 256 characters");
+  EXPECT_THROW(over.apply_override("a={" + k257 + ": 1}"), Error);
+  over.apply_override(std::string(200, '\t') + "=1");  // emitted as 400 characters: loads again
+  EXPECT_NO_THROW(Document::load_string(over.emit(), "effective"));
+}
+
 TEST(Config, ControlCharactersAndInvalidUtf8AreRefusedNamingTheLine) {
   // yaml-cpp would load them and emit a configuration it cannot read back
   // (found by config_loader_fuzz).

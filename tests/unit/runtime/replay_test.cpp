@@ -153,6 +153,39 @@ TEST(Replay, IsolatedNodesReceiveTheRecordingNotEachOther) {
   EXPECT_EQ(out2[0].timestamp, kT0 + 3'000'000);
 }
 
+// A recording's process that started late (harvest-replay attaches it at its
+// CONFIG snapshot's time): its replayed twin receives only what came after
+// that moment and runs its timers from then, as it did live; a node added
+// with a start before the log's first event is attached at that event.
+TEST(Replay, ANodeAddedFromItsStartSeesWhatCameAfterAndTicksFromThen) {
+  TempDir dir;
+  rt::write_log(dir / "in.log", make_input());
+  ScaleNode early("IN", "OUT", 2.0, false), late("IN", "OUT2", 3.0), before("IN", "OUT3", 1.0, false);
+  rt::ReplayOptions opt;
+  opt.input_log = dir / "in.log";
+  opt.output_log = dir / "out.log";
+  opt.isolated = true;
+  rt::ReplayRunner runner(opt);
+  const rt::Micros start = kT0 + 1'000'010;  // frame 30 is at kT0 + 999,990
+  runner.add_from(late, start);
+  runner.add(early);
+  runner.add_from(before, kT0 - 5'000'000);
+  const auto res = runner.run();
+  EXPECT_EQ(early.received, 60);
+  EXPECT_EQ(before.received, 60);
+  EXPECT_EQ(late.received, 29);  // frames 31..59
+  const auto out = rt::read_log(dir / "out.log");
+  const auto out2 = on_channel(out, "OUT2");
+  ASSERT_EQ(out2.size(), 29u);
+  EXPECT_EQ(out2.front().timestamp, kT0 + 31 * 33'333);
+  // Ticks every 100 ms from its start, to the last event (kT0 + 1,966,647).
+  const auto ticks = on_channel(out, "TICK");
+  ASSERT_EQ(ticks.size(), 9u);
+  for (std::size_t k = 0; k < ticks.size(); ++k)
+    EXPECT_EQ(rt::decode<ir_range_t>(ticks[k].data)->header.utime, start + static_cast<rt::Micros>(k + 1) * 100'000);
+  EXPECT_EQ(res.timers_fired, 9);
+}
+
 TEST(Replay, TailKeepsTimersGoing) {
   TempDir dir;
   rt::write_log(dir / "in.log", make_input(2));
