@@ -10,7 +10,6 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
-#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
@@ -25,6 +24,7 @@
 #include "runtime/channels.hpp"
 #include "runtime/checked_subscription.hpp"
 #include "runtime/clock.hpp"
+#include "runtime/file_stamp.hpp"
 #include "runtime/log_io.hpp"
 #include "security/authority.hpp"
 #include "servo/operator_command.hpp"
@@ -49,15 +49,6 @@ void on_demo_signal(int sig) { g_signal = sig; }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-std::string utc_stamp() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
-  return buf;
 }
 
 // Receives what the demo watches; one message at a time, on this thread.
@@ -381,7 +372,7 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
     err << "harvest-demo: " << o.set_file.string() << ": process set not found\n";
     return 2;
   }
-  if (o.out_dir.empty()) o.out_dir = o.root / "logs" / "demo" / (utc_stamp() + "-" + scenario.name);
+  if (o.out_dir.empty()) o.out_dir = o.root / "logs" / "demo" / (rt::utc_file_stamp() + "-" + scenario.name);
   fs::create_directories(o.out_dir);
   if (o.lcm_url.empty()) o.lcm_url = pick_run_ports().lcm_url;
   lcm::LCM lcm(o.lcm_url);

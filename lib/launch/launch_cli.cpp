@@ -8,7 +8,6 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
-#include <ctime>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -17,6 +16,7 @@
 #include "launch/sheriff.hpp"
 #include "launch/site_check.hpp"
 #include "launch/supervisor.hpp"
+#include "runtime/file_stamp.hpp"
 #include "runtime/heartbeat.hpp"
 #include "runtime/live_runner.hpp"
 #include "runtime/netcheck.hpp"
@@ -28,16 +28,6 @@ namespace {
 rt::LiveRunner* g_runner = nullptr;
 extern "C" void harvest_launch_on_signal(int) {
   if (g_runner != nullptr) g_runner->request_stop(0);
-}
-
-std::string timestamp_now() {
-  // Names the recording file only; nothing the supervisor decides depends on it.
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
-  return buf;
 }
 
 void print_plan(const SetSpec& set, const std::vector<std::size_t>& selected) {
@@ -292,7 +282,7 @@ int launch_main(int argc, char** argv) {
           if (const auto at = arg.find("socketcan:"); at != std::string::npos)
             security::refuse_sim_key_on_real_bus(*deputy_key, arg.substr(at), "harvest-launch --deputy key");
     }
-    Supervisor supervisor(set, sopts, console, timestamp_now());
+    Supervisor supervisor(set, sopts, console, rt::utc_file_stamp());
     rt::LiveRunner runner(rt::LiveOptions{set.lcm_url, set.prefix, supervisor.shutdown_budget()});
     const std::string host = host_name();
     std::vector<const rt::Node*> watched{&supervisor};

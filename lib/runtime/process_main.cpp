@@ -106,8 +106,11 @@ int run_process(int argc, char** argv, const std::string& process, const NodeFac
     HeartbeatNode heartbeat(ProcessIdentity{process, instance, hostname(), static_cast<int>(getpid()), config_path,
                                             effective, cmdline, software_version()},
                             watched);
-    runner.add(heartbeat);
+    // The heartbeat attaches last: its CONFIG snapshot is stamped when every
+    // node has subscribed, the moment from which replay feeds the node its
+    // live twin surely received (docs/replay.md).
     for (auto& n : nodes) runner.add(*n);
+    runner.add(heartbeat);
 
     g_runner = &runner;
     struct sigaction sa {};
