@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -44,9 +45,15 @@ TempDir::~TempDir() {
 ChildProcess::ChildProcess(const std::vector<std::string>& argv, const std::filesystem::path& output_file,
                            const std::vector<std::string>& extra_env)
     : output_file_(output_file) {
+  const pid_t parent = getpid();
   pid_ = fork();
   if (pid_ < 0) throw std::runtime_error("fork failed");
   if (pid_ == 0) {
+    // A test that aborts (a failed ASSERT in a helper thread, a sanitizer
+    // report) skips the destructor that stops its children: they get SIGTERM
+    // from the kernel instead of running on and loading the machine.
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(127);
     const int fd = open(output_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd >= 0) {
       dup2(fd, 1);
