@@ -5,16 +5,22 @@
 // Thesis section 6.4: a run succeeds when the target fruit is inside the
 // gripper at the end of the control loop; here that is the simulator's
 // "picked" (held within its capture envelope and pulled off its stem). Its
-// final gripper-to-fruit error must also stay within kMaxFinalErrorMm: the
-// controller lands 3-6 mm from the centre (docs/demo.md), the gripper holds a
-// fruit up to 22 mm (capture_radius_mm) off its axis; 12 mm, about half of
-// that, fails on a regression of the aim long before fruit start to drop.
+// final gripper-to-fruit error must also stay within kMaxFinalErrorMm: with
+// this set the controller closes 6-10 mm from the centre (docs/demo.md), and
+// 18.5 mm without the grasp advance; the gripper holds a fruit up to 22 mm
+// (capture_radius_mm) off its axis. 15 mm fails on a lost grasp advance or a
+// like regression of the aim before fruit start to drop.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <optional>
 
 #include "demo_support.hpp"
+#include "harvest/robot_state_t.hpp"
+#include "runtime/channels.hpp"
 #include "runtime/json.hpp"
+#include "runtime/log_io.hpp"
 
 namespace ht = harvest::testing;
 namespace fs = std::filesystem;
@@ -25,7 +31,7 @@ namespace {
 using ht::run_demo;
 using ht::slurp;
 
-constexpr double kMaxFinalErrorMm = 12.0;
+constexpr double kMaxFinalErrorMm = 15.0;
 
 Eigen::Vector3d mm(const rt::Json& a) { return {a[0].get<double>(), a[1].get<double>(), a[2].get<double>()}; }
 
@@ -34,6 +40,29 @@ const rt::Json* fruit_at(const rt::Json& summary, int run, const Eigen::Vector3d
   for (const auto& f : summary["fruit"])
     if (f["run"] == run && (mm(f["true_position_mm"]) - at_mm).norm() < 5.0) return &f;
   return nullptr;
+}
+
+// Where the tool was when run `run` began: its first ROBOT_STATE in the run's recording [mm].
+std::optional<Eigen::Vector3d> start_tool_mm(const fs::path& out_dir, int run) {
+  const std::string prefix = "run" + std::to_string(run) + "-";
+  std::vector<fs::path> parts;
+  for (const auto& e : fs::directory_iterator(out_dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) == 0 && name.find(".lcm") != std::string::npos) parts.push_back(e.path());
+  }
+  std::sort(parts.begin(), parts.end());
+  for (const auto& p : parts)
+    for (const auto& r : rt::read_log(p.string()))
+      if (r.channel == harvest::channels::kRobotState)
+        if (const auto s = rt::decode<harvest::robot_state_t>(r.data))
+          return Eigen::Vector3d(s->tool_pose.position[0], s->tool_pose.position[1], s->tool_pose.position[2]) * 1e3;
+  return std::nullopt;
+}
+
+void expect_started_at(const ht::TempDir& dir, int run, const Eigen::Vector3d& table_mm) {
+  const auto start = start_tool_mm(dir / "out", run);
+  ASSERT_TRUE(start.has_value()) << "no ROBOT_STATE recorded in run " << run;
+  EXPECT_LT((*start - table_mm).norm(), 5.0) << "run " << run << " started at " << start->transpose();
 }
 
 rt::Json run_scenario(const std::vector<std::string>& args, const ht::TempDir& dir, std::string* out) {
@@ -60,20 +89,20 @@ TEST(DemoScenarios, ExperimentTwoPicksTheFruitTheFixedCameraSeesFromEachStartPos
   std::string out;
   const rt::Json j = run_scenario({"--scenario", "config/scenarios/experiment2.yaml", "--runs", "3"}, dir, &out);
   ASSERT_EQ(j["per_run"].size(), 3u) << out;
-  const Eigen::Vector3d fruit1(-266.7, 1016.0, -540.2), fruit2(-68.6, 1168.4, -375.1);  // table 6-7
+  // Table 6-7's fruit and table 6-8's start poses (run k uses variant k).
+  const Eigen::Vector3d fruit1(-266.7, 1016.0, -540.2), fruit2(-68.6, 1168.4, -375.1);
+  const Eigen::Vector3d starts[3] = {{549.0, 896.0, -203.0}, {40.0, 979.0, 61.0}, {-715.0, 748.0, 47.0}};
   for (int run = 0; run < 3; ++run) {
     SCOPED_TRACE("run " + std::to_string(run));
-    // Each run from its own start pose of table 6-8 (variant run mod 3).
-    EXPECT_NE(slurp(dir / "out" / ("run" + std::to_string(run) + "-set.yaml")).find("run=" + std::to_string(run)),
-              std::string::npos);
+    expect_started_at(dir, run, starts[run]);
     const rt::Json* hidden = fruit_at(j, run, fruit1);
     const rt::Json* seen = fruit_at(j, run, fruit2);
     ASSERT_TRUE(hidden && seen) << j.dump(1);
     EXPECT_FALSE((*hidden)["counted"].get<bool>()) << "fruit #1 should be hidden from the fixed camera";
     EXPECT_LT((*hidden)["visible_fraction"].get<double>(), 0.5);
-    EXPECT_EQ((*hidden)["outcome"], "on tree");
+    EXPECT_EQ((*hidden)["outcome"].get<std::string>(), "on tree");
     EXPECT_TRUE((*seen)["counted"].get<bool>());
-    EXPECT_EQ((*seen)["outcome"], "picked");
+    EXPECT_EQ((*seen)["outcome"].get<std::string>(), "picked");
     ASSERT_TRUE((*seen)["final_error_mm"].is_number());
     EXPECT_LE((*seen)["final_error_mm"].get<double>(), kMaxFinalErrorMm);
     EXPECT_EQ(j["per_run"][run]["picked"], 1);
@@ -92,14 +121,16 @@ TEST(DemoScenarios, ExperimentThreePicksEachTargetFromItsStartPose) {
   std::string out;
   const rt::Json j = run_scenario({"--scenario", "config/scenarios/experiment3.yaml", "--runs", "3"}, dir, &out);
   ASSERT_EQ(j["per_run"].size(), 3u) << out;
-  const Eigen::Vector3d targets[3] = {
-      {-266.7, 1016.0, -540.2}, {-228.6, 1066.8, -540.2}, {-412.6, 1011.4, -528.9}};  // table 6-9
+  // Table 6-9: targets and start poses (run k uses variant k).
+  const Eigen::Vector3d targets[3] = {{-266.7, 1016.0, -540.2}, {-228.6, 1066.8, -540.2}, {-412.6, 1011.4, -528.9}};
+  const Eigen::Vector3d starts[3] = {{-138.0, 1015.0, -223.0}, {-538.0, 554.0, -920.0}, {39.0, 981.0, 69.0}};
   for (int run = 0; run < 3; ++run) {
     SCOPED_TRACE("run " + std::to_string(run));
+    expect_started_at(dir, run, starts[run]);
     const rt::Json* f = fruit_at(j, run, targets[run]);
     ASSERT_NE(f, nullptr) << j.dump(1);
     EXPECT_TRUE((*f)["counted"].get<bool>());
-    EXPECT_EQ((*f)["outcome"], "picked");
+    EXPECT_EQ((*f)["outcome"].get<std::string>(), "picked");
     ASSERT_TRUE((*f)["final_error_mm"].is_number());
     EXPECT_LE((*f)["final_error_mm"].get<double>(), kMaxFinalErrorMm);
     EXPECT_EQ(j["per_run"][run]["reachable"], 1);
@@ -122,9 +153,9 @@ TEST(DemoScenarios, ShortTreeIsPickedCleanly) {
   EXPECT_GE(j["reachable"].get<int>(), 3) << "the short tree should still have several counted fruit";
   EXPECT_EQ(j["picked"], j["reachable"]);
   for (const auto& f : j["fruit"]) {
-    EXPECT_NE(f["outcome"], "knocked off") << f.dump();
+    EXPECT_NE(f["outcome"].get<std::string>(), "knocked off") << f.dump();
     if (f["counted"].get<bool>()) {
-      EXPECT_EQ(f["outcome"], "picked") << f.dump();
+      EXPECT_EQ(f["outcome"].get<std::string>(), "picked") << f.dump();
     }
   }
   EXPECT_LE(j["mean_final_error_mm"].get<double>(), kMaxFinalErrorMm);
