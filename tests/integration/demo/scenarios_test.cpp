@@ -65,6 +65,14 @@ void expect_started_at(const ht::TempDir& dir, int run, const Eigen::Vector3d& t
   EXPECT_LT((*start - table_mm).norm(), 5.0) << "run " << run << " started at " << start->transpose();
 }
 
+// A failed test shows the demo's whole output (the controller's states, fruit and tallies per run).
+struct PrintOnFailure {
+  const std::string& out;
+  ~PrintOnFailure() {
+    if (::testing::Test::HasFailure()) std::printf("harvest-demo output:\n%s\n", out.c_str());
+  }
+};
+
 rt::Json run_scenario(const std::vector<std::string>& args, const ht::TempDir& dir, std::string* out) {
   std::vector<std::string> all = {"--set", "config/sets/sim-direct.yaml", "--image-rate", "2"};
   all.insert(all.end(), args.begin(), args.end());
@@ -87,6 +95,7 @@ rt::Json run_scenario(const std::vector<std::string>& args, const ht::TempDir& d
 TEST(DemoScenarios, ExperimentTwoPicksTheFruitTheFixedCameraSeesFromEachStartPose) {
   ht::TempDir dir;
   std::string out;
+  const PrintOnFailure print{out};
   const rt::Json j = run_scenario({"--scenario", "config/scenarios/experiment2.yaml", "--runs", "3"}, dir, &out);
   ASSERT_EQ(j["per_run"].size(), 3u) << out;
   // Table 6-7's fruit and table 6-8's start poses (run k uses variant k).
@@ -119,6 +128,7 @@ TEST(DemoScenarios, ExperimentTwoPicksTheFruitTheFixedCameraSeesFromEachStartPos
 TEST(DemoScenarios, ExperimentThreePicksEachTargetFromItsStartPose) {
   ht::TempDir dir;
   std::string out;
+  const PrintOnFailure print{out};
   const rt::Json j = run_scenario({"--scenario", "config/scenarios/experiment3.yaml", "--runs", "3"}, dir, &out);
   ASSERT_EQ(j["per_run"].size(), 3u) << out;
   // Table 6-9: targets and start poses (run k uses variant k).
@@ -148,6 +158,7 @@ TEST(DemoScenarios, ExperimentThreePicksEachTargetFromItsStartPose) {
 TEST(DemoScenarios, ShortTreeIsPickedCleanly) {
   ht::TempDir dir;
   std::string out;
+  const PrintOnFailure print{out};
   const rt::Json j = run_scenario({"--scenario", "config/scenarios/tree_short.yaml"}, dir, &out);
   ASSERT_EQ(j["per_run"].size(), 1u) << out;
   EXPECT_GE(j["reachable"].get<int>(), 3) << "the short tree should still have several counted fruit";
