@@ -35,16 +35,21 @@ function(harvest_process name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} harvest_warnings)
 endfunction()
 
-# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS ...]): a GoogleTest binary
-# registered with CTest. Tests run from the source root so fixtures can be
-# found as config/..., logs/...
+# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS ...] [RESOURCE_LOCK NAME]):
+# a GoogleTest binary registered with CTest. Tests run from the source root so
+# fixtures can be found as config/..., logs/... Tests holding the same
+# RESOURCE_LOCK never run at the same time under ctest -j.
 function(harvest_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
+  endif()
+  set(lock "")
+  if(ARG_RESOURCE_LOCK)
+    set(lock RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
   endif()
   add_executable(${name} ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
@@ -54,7 +59,7 @@ function(harvest_test name)
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
     DISCOVERY_MODE PRE_TEST
-    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT})
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${lock})
 endfunction()
 
 # harvest_benchmark(NAME SOURCES ... [DEPS ...]): a Google Benchmark binary in

@@ -13,9 +13,9 @@
 #include <sstream>
 
 #include "demo/set_rewrite.hpp"
+#include "demo_support.hpp"
 #include "runtime/json.hpp"
 #include "runtime/log_io.hpp"
-#include "test_support.hpp"
 
 namespace ht = harvest::testing;
 namespace fs = std::filesystem;
@@ -23,28 +23,8 @@ namespace rt = harvest::rt;
 
 namespace {
 
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-int run_demo(const std::vector<std::string>& extra, const fs::path& dir, std::string* output) {
-  std::vector<std::string> argv = {ht::bin("harvest-demo"),
-                                   "--no-plots",
-                                   "--lcm-url",
-                                   ht::unique_lcm_url(),
-                                   "--out",
-                                   (dir / "out").string(),
-                                   "--summary",
-                                   (dir / "summary.json").string()};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  ht::ChildProcess p(argv, dir / "demo.txt");
-  const int code = p.wait(std::chrono::seconds(240));
-  *output = p.output();
-  return code;
-}
+using ht::run_demo;
+using ht::slurp;
 
 TEST(Demo, ExperimentOneIsPickedThroughTheWholeProcessSet) {
   ht::TempDir dir;

@@ -114,7 +114,7 @@ TEST(Scenario, FixedCameraTruthMatchesTheThesisTablesItWasNotFittedTo) {
       {{139.7, -25.4, 787.4}, {-266.7, 1016.0, -540.2}, {-266.7, 1016.0, -540.2}},
       {{127.9, -171.6, 782.55}, {-412.6, 1011.4, -528.9}, {-412.9, 1011.15, -528.4}},
   };
-  for (const char* name : {"experiment1", "experiment2", "experiment3", "tree", "tree_wind"}) {
+  for (const char* name : {"experiment1", "experiment2", "experiment3", "tree", "tree_wind", "tree_short"}) {
     SCOPED_TRACE(name);
     const Placement t = load_scenario(std::string("config/scenarios/") + name + ".yaml").fixed_camera_truth;
     for (const Row& r : rows) {
