@@ -66,6 +66,7 @@ FeatureTrackerConfig FeatureTrackerConfig::from_yaml(const config::Node& n) {
   c.fruit_margin = n.get("fruit_margin", c.fruit_margin, {0.0, 10.0});
   c.fruit_max_age_s = n.get("fruit_max_age_s", c.fruit_max_age_s, {0.0, 3600.0});
   c.matching = n.get("matching", c.matching);
+  c.max_frame_age_s = n.get("max_frame_age_s", c.max_frame_age_s, {0.0, 3600.0});
   c.tracker = tracker_params_from_yaml(n.child("tracker"));
   c.matcher = matcher_params_from_yaml(n.child("matcher"));
   return c;
@@ -128,10 +129,18 @@ void FeatureTrackerNode::on_desired(const image_t& image) {
     return;
   }
   matcher_.set_desired(to_gray(d.bgr));
+  // Its pixels go out in its sensor's pixels, as the current image's do: a
+  // zoomed image binned like the camera-in-hand's compares with it directly.
+  const cv::Rect2d roi = camera::image_roi(image);
+  desired_roi_ = {roi.x, roi.y, roi.width / d.bgr.cols, roi.height / d.bgr.rows};
   count("desired_images");
 }
 
 void FeatureTrackerNode::on_image(const image_t& image) {
+  if (config_.max_frame_age_s > 0.0 && rt::to_seconds(now() - image.header.utime) > config_.max_frame_age_s) {
+    count("frames_skipped_late");
+    return;
+  }
   const auto d = camera::decode_image(image);
   if (!d.ok()) {
     count("bad_images");
@@ -185,8 +194,8 @@ void FeatureTrackerNode::on_image(const image_t& image) {
   out.status = static_cast<int8_t>(m.status);
   out.status_text = m.text;
   for (std::size_t i = 0; i < m.desired.size(); ++i) {
-    out.desired_u_px.push_back(m.desired[i].x);
-    out.desired_v_px.push_back(m.desired[i].y);
+    out.desired_u_px.push_back(static_cast<float>(desired_roi_[0] + m.desired[i].x * desired_roi_[2]));
+    out.desired_v_px.push_back(static_cast<float>(desired_roi_[1] + m.desired[i].y * desired_roi_[3]));
     out.current_u_px.push_back(static_cast<float>(roi.x + m.current[i].x * sx));
     out.current_v_px.push_back(static_cast<float>(roi.y + m.current[i].y * sy));
   }

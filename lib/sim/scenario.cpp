@@ -1,5 +1,6 @@
 #include "sim/scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/board.hpp"
@@ -110,6 +111,7 @@ Scenario Scenario::from_config(const config::Node& root) {
       FruitSpec spec;
       spec.position = vec3(f.numbers("position_mm", 3), kMm);
       spec.diameter = f.get<double>("diameter_mm", 0.0, {0.0, 200.0}) * kMm;
+      spec.sticker = f.get<double>("sticker_mm", 0.0, {0.0, 200.0}) * kMm;
       s.fruit.push_back(spec);
     }
   }
@@ -221,6 +223,14 @@ Scenario Scenario::from_config(const config::Node& root) {
     }
   }
 
+  if (root.has("zoom")) {
+    const auto z = root.child("zoom");
+    s.zoom.fruit = z.get<int>("fruit", 0, {0, 10000});
+    if (s.zoom.fruit >= static_cast<int>(s.fruit.size())) z.fail("fruit", "an index into the scenario's fruit list");
+    s.zoom.distance = z.get<double>("distance_mm", s.zoom.distance / kMm, {20.0, 5000.0}) * kMm;
+    s.zoom.rate_hz = z.get<double>("rate_hz", s.zoom.rate_hz, {0.1, 120.0});
+  }
+
   const auto g = root.child("gripper");
   s.gripper.close_time_s = g.get<double>("close_time_s", s.gripper.close_time_s, {0.01, 10.0});
   s.gripper.open_time_s = g.get<double>("open_time_s", s.gripper.open_time_s, {0.01, 10.0});
@@ -264,6 +274,9 @@ Scenario Scenario::for_run(int run) const {
   if (!v.fruit.empty()) {
     s.fruit.clear();
     for (int i : v.fruit) s.fruit.push_back(fruit[static_cast<std::size_t>(i)]);
+    // The zoom follows its fruit into the subset (none when the run leaves it out).
+    const auto at = std::find(v.fruit.begin(), v.fruit.end(), zoom.fruit);
+    s.zoom.fruit = zoom.enabled() && at != v.fruit.end() ? static_cast<int>(at - v.fruit.begin()) : -1;
   }
   return s;
 }

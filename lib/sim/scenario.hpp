@@ -47,6 +47,21 @@ struct CameraSetup {
 struct FruitSpec {
   Vec3 position;          // base frame [m]
   double diameter = 0.0;  // [m]; 0: drawn from the size distribution
+  double sticker = 0.0;   // [m] side of a printed square sticker facing the fixed camera (sim/sticker.hpp); 0: none
+};
+
+// CAMERA_FIXED_ZOOM, the desired image of teach by zooming: the fixed camera
+// turned and zoomed onto one fruit as a pan-tilt-zoom camera would (a
+// virtual camera at the fixed camera's true position, upright, its axis
+// through the fruit's sticker, or its peel facing it), with the hand camera's
+// image size and true intrinsics, the focal length times (distance to the
+// sticker) / `distance`: the sticker looks as the camera-in-hand would see it
+// from `distance` along the fixed camera's line of sight.
+struct Zoom {
+  int fruit = -1;         // index into Scenario::fruit; -1: no zoomed camera
+  double distance = 0.2;  // [m] from the sticker (or the peel) the zoomed view corresponds to
+  double rate_hz = 1.0;   // a snapshot now and then: every new desired image restarts the matching
+  bool enabled() const { return fruit >= 0; }
 };
 
 struct SizeDistribution {
@@ -210,6 +225,7 @@ struct Scenario {
   IrSetup ir;
   Faults faults;
   std::vector<BoardSetup> boards;  // calibration boards in the scene
+  Zoom zoom;
 
   static Scenario from_config(const config::Node& node);
 
