@@ -128,6 +128,15 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   if (!c.workspace.contains(c.home_pose.translation())) n.fail("home_pose", "a position inside the workspace");
   if (!c.workspace.contains(c.drop_pose.translation())) n.fail("drop_pose", "a position inside the workspace");
 
+  const config::Node tz = n.child("tbz");
+  c.tbz.lambda_w = tz.get("lambda_w", c.tbz.lambda_w, {0.0, 100.0});
+  c.tbz.lambda_v = tz.get("lambda_v", c.tbz.lambda_v, {0.0, 1000.0});
+  c.tbz.desired_depth_estimate = tz.get("desired_depth_estimate", c.tbz.desired_depth_estimate, {0.01, 10.0});
+  c.tbz.max_match_age_s = tz.get("max_match_age_s", c.tbz.max_match_age_s, {0.01, 10.0});
+  c.tbz.fallback_after_s = tz.get("fallback_after_s", c.tbz.fallback_after_s, {0.0, 60.0});
+  c.tbz.arrived_rotation = tz.get("arrived_rotation", c.tbz.arrived_rotation, {0.0, 1.0});
+  c.tbz.arrived_translation = tz.get("arrived_translation", c.tbz.arrived_translation, {0.0, 1.0});
+
   const config::Node g = n.child("gains");
   c.gains.kp_lateral = g.get("kp_lateral", c.gains.kp_lateral, nonneg);
   c.gains.kd_lateral = g.get("kd_lateral", c.gains.kd_lateral, nonneg);

@@ -149,6 +149,16 @@ struct ServoConfig {
   Timeouts timeouts;
   geometry::CameraModel hand_camera = kDefaultHandCamera;
   std::string approach_mode = "reconstruction";  // pluggable approach strategy (approach.hpp)
+  // approach_mode tbz (servo/tbz_approach.hpp, docs/teach-by-zooming.md).
+  struct Tbz {
+    double lambda_w = 2.0;                 // [1/s] rotation gain (eq. 5-44)
+    double lambda_v = 0.25;                // translation gain (eq. 5-62)
+    double desired_depth_estimate = 0.25;  // [m] Z*_1 hat: the sticker's depth at the goal, roughly
+    double max_match_age_s = 0.3;          // older FEATURE_MATCHES are not steered by
+    double fallback_after_s = 1.5;         // no usable matches this long: 3D-reconstruction approach for the fruit
+    double arrived_rotation = 0.0175;      // [rad] |e_w| at or below this ...
+    double arrived_translation = 0.01;     // ... and |e_v| at or below this: at the goal, IR guidance from there
+  } tbz;
   // ORIENT in place: "pose_goal" (a pose goal the robot link runs along a
   // smooth path) or "thesis_pd" (the thesis's PD law on the aim angles,
   // eq. 6-24, as tool twists, also holding the roll about the gripper axis
