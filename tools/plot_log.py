@@ -17,6 +17,11 @@ log holds:
                    every target against the nearest true fruit
   detections.png   camera frames with the detections drawn on them (from
                    `harvest-log frames`)
+  tbz.png          teach by zooming (approach_mode tbz, TBZ_ERROR): the
+                   rotation error u theta and the translation error e_v of
+                   every TBZ step, and the commanded tool velocities over the
+                   same span (like the thesis's figures 5-5, 5-6, 5-8, 5-9),
+                   with the share of verified FEATURE_MATCHES
 Prints one line per PNG written. Exit 0 if at least one plot was written.
 """
 import argparse
@@ -280,6 +285,52 @@ def plot_depth(log, out):
     return out
 
 
+def plot_tbz(log, out):
+    err = log.rows("TBZ_ERROR")
+    if not err:
+        return None
+    cmd = [r for r in log.rows("ROBOT_COMMAND", ["type", "twist"]) if r.get("type") == 1.0]
+    matches = log.rows("FEATURE_MATCHES", ["status", "num_inliers"])
+    status = log.rows("HARVEST_STATUS", ["state"])
+    te = [log.time(r) for r in err]
+    t0, t1 = te[0], te[-1]
+    # TBZ steps come in runs, one per approach: plot the span of the steps, a little either side.
+    t0, t1 = t0 - 0.5, t1 + 0.5
+    fig, axes = plt.subplots(5, 1, figsize=(9, 12), sharex=True)
+    for i, name in enumerate("xyz"):
+        axes[0].plot(te, [r[f"angular[{i}]"] for r in err], lw=0.9, label=f"e_w{name}")
+    axes[0].plot(te, [math.sqrt(sum(r[f"angular[{i}]"] ** 2 for i in range(3))) for r in err], "k", lw=0.6,
+                 label="|e_w|")
+    axes[0].set_ylabel("rotation error u theta [rad]")
+    for i, name in enumerate(("m_e1 - m_d1", "m_e2 - m_d2", "ln(Z1/Z*1)")):
+        axes[1].plot(te, [r[f"linear[{i}]"] for r in err], lw=0.9, label=name)
+    axes[1].set_ylabel("translation error e_v")
+    c = [r for r in cmd if t0 <= log.time(r) <= t1]
+    tc = [log.time(r) for r in c]
+    for i, name in enumerate("xyz"):
+        axes[2].plot(tc, [r[f"twist.linear[{i}]"] for r in c], lw=0.9, label=f"v{name}")
+        axes[3].plot(tc, [r[f"twist.angular[{i}]"] for r in c], lw=0.9, label=f"w{name}")
+    axes[2].set_ylabel("commanded v (base) [m/s]")
+    axes[3].set_ylabel("commanded w (base) [rad/s]")
+    status = [r for r in status if t0 <= log.time(r) <= t1]  # state labels inside the plotted span only
+    m = [r for r in matches if t0 <= log.time(r) <= t1]
+    axes[4].plot([log.time(r) for r in m], [r.get("num_inliers", 0) if r.get("status") == 0.0 else 0 for r in m], ".",
+                 ms=2, label="verified matches (0: status not OK)")
+    axes[4].set_ylabel("FEATURE_MATCHES inliers")
+    axes[4].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.set_xlim(t0, t1)
+        mark_states(ax, log, status)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=6, ncol=4, loc="upper right")
+    fig.suptitle(f"teach by zooming: {os.path.basename(log.path)}")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
+
+
 def plot_detections(log, out, frames):
     pngs = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -318,7 +369,7 @@ def main():
     default_tool = os.path.join(os.environ.get("HARVEST_BUILD_DIR", os.path.join(ROOT, "build")), "bin", "harvest-log")
     ap.add_argument("--harvest-log", default=default_tool, help="harvest-log executable")
     ap.add_argument("--frames", type=int, default=4, help="frames per camera in detections.png")
-    ap.add_argument("--plots", default="servo,trajectory,depth,detections", help="which plots (comma-separated)")
+    ap.add_argument("--plots", default="servo,trajectory,depth,tbz,detections", help="which plots (comma-separated)")
     a = ap.parse_args()
     if not os.path.exists(a.harvest_log):
         raise SystemExit(f"plot_log: {a.harvest_log} not found (build first, or pass --harvest-log)")
@@ -328,7 +379,7 @@ def main():
         raise SystemExit("plot_log: empty log")
     written = []
     wanted = set(a.plots.split(","))
-    for name, fn in (("servo", plot_servo), ("trajectory", plot_trajectory), ("depth", plot_depth)):
+    for name, fn in (("servo", plot_servo), ("trajectory", plot_trajectory), ("depth", plot_depth), ("tbz", plot_tbz)):
         p = fn(log, os.path.join(a.out, name + ".png")) if name in wanted else None
         if p:
             written.append(p)

@@ -81,6 +81,8 @@ constexpr Key<double> fruit_margin{"fruit_margin", 0.2, {0.0, 10.0}, "",
 constexpr Key<double> fruit_max_age_s{"fruit_max_age_s", 0.5, {0.0, 3600.0}, "s",
                                       "older detections do not define a region"};
 constexpr Key<bool> matching{"matching", true, {}, "", "match against the desired image: FEATURE_MATCHES"};
+constexpr Key<double> max_frame_age_s{"max_frame_age_s", 0.0, {0.0, 3600.0}, "s",
+                                      "> 0: a frame older than this on arrival is skipped (frames_skipped_late), not answered late"};
 }  // namespace kn
 }  // namespace
 
@@ -143,6 +145,7 @@ FeatureTrackerConfig FeatureTrackerConfig::from_yaml(const config::Node& n) {
   c.fruit_margin = n.get(kn::fruit_margin);
   c.fruit_max_age_s = n.get(kn::fruit_max_age_s);
   c.matching = n.get(kn::matching);
+  c.max_frame_age_s = n.get(kn::max_frame_age_s);
   c.tracker = tracker_params_from_yaml(n.child("tracker"));
   c.matcher = matcher_params_from_yaml(n.child("matcher"));
   return c;
@@ -152,7 +155,7 @@ std::vector<config::Section> FeatureTrackerConfig::schema() {
   const std::string where = "harvest-feature-tracker, config/features/feature_tracker.yaml (docs/feature-tracker.md).";
   return {config::section("feature_tracker", where, kn::camera, kn::image_channel, kn::desired_channel,
                           kn::fruit_channel, kn::tracks_channel, kn::matches_channel, kn::region, kn::fruit_margin,
-                          kn::fruit_max_age_s, kn::matching),
+                          kn::fruit_max_age_s, kn::matching, kn::max_frame_age_s),
           config::section("feature_tracker.tracker", where, kt::max_features, kt::min_features),
           config::section("feature_tracker.tracker.corners", where, kc::window, kc::min_eigenvalue, kc::quality_level,
                           kc::min_distance_px, kc::border_px),
@@ -221,10 +224,18 @@ void FeatureTrackerNode::on_desired(const image_t& image) {
     return;
   }
   matcher_.set_desired(to_gray(d.bgr));
+  // Its pixels go out in its sensor's pixels, as the current image's do: a
+  // zoomed image binned like the camera-in-hand's compares with it directly.
+  const cv::Rect2d roi = camera::image_roi(image);
+  desired_roi_ = {roi.x, roi.y, roi.width / d.bgr.cols, roi.height / d.bgr.rows};
   count("desired_images");
 }
 
 void FeatureTrackerNode::on_image(const image_t& image) {
+  if (config_.max_frame_age_s > 0.0 && rt::to_seconds(now() - image.header.utime) > config_.max_frame_age_s) {
+    count("frames_skipped_late");
+    return;
+  }
   const auto d = camera::decode_image(image);
   if (!d.ok()) {
     count("bad_images");
@@ -278,8 +289,8 @@ void FeatureTrackerNode::on_image(const image_t& image) {
   out.status = static_cast<int8_t>(m.status);
   out.status_text = m.text;
   for (std::size_t i = 0; i < m.desired.size(); ++i) {
-    out.desired_u_px.push_back(m.desired[i].x);
-    out.desired_v_px.push_back(m.desired[i].y);
+    out.desired_u_px.push_back(static_cast<float>(desired_roi_[0] + m.desired[i].x * desired_roi_[2]));
+    out.desired_v_px.push_back(static_cast<float>(desired_roi_[1] + m.desired[i].y * desired_roi_[3]));
     out.current_u_px.push_back(static_cast<float>(roi.x + m.current[i].x * sx));
     out.current_v_px.push_back(static_cast<float>(roi.y + m.current[i].y * sy));
   }

@@ -4,6 +4,7 @@
 // See docs/feature-tracker.md.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 
@@ -33,6 +34,10 @@ struct FeatureTrackerConfig {
   double fruit_margin = 0.2;     // fraction of the box size
   double fruit_max_age_s = 0.5;  // older detections do not define a region
   bool matching = true;          // publish FEATURE_MATCHES
+  // > 0: a camera frame older than this on arrival (by the node's clock) is
+  // skipped, not answered late: a tracker that falls behind catches up with
+  // the newest frame instead of queueing (0: every frame).
+  double max_frame_age_s = 0.0;  // = feature_tracker.max_frame_age_s's declared default (nodes.cpp)
   TrackerParams tracker;
   MatcherParams matcher;
 
@@ -54,6 +59,7 @@ class FeatureTrackerNode : public rt::Node {
  private:
   void on_image(const image_t& image);
   void on_desired(const image_t& image);
+  std::array<double, 4> desired_roi_{0, 0, 1, 1};  // the desired image's roi x, y and sensor pixels per pixel
   void on_fruit(const fruit_detections_t& fruit);
   cv::Rect region_for(const image_t& image, const cv::Size& size) const;
 

@@ -40,6 +40,13 @@ struct ApproachOutput {
   // [m] centring x, y and depth error: of the fruit from the gripper axis in
   // the tool frame (reconstruction), or in the camera frame (teach by zooming).
   Eigen::Vector3d error;
+  // Strategies that servo to a goal of their own (teach by zooming: the pose
+  // whose view is the zoomed image) say when they are there; the machine then
+  // hands over to IR guidance. Unset: the machine switches by the remaining
+  // distance to the fruit (ir_switch_distance).
+  std::optional<bool> arrived;
+  // What the strategy is doing, for HARVEST_STATUS (shown when it changes).
+  std::string note;
 };
 
 class ApproachStrategy {
@@ -49,6 +56,8 @@ class ApproachStrategy {
   // Called when a new approach to a fruit starts.
   virtual void reset() = 0;
   virtual ApproachOutput update(const ApproachInput& in) = 0;
+  // True: update() is asked before the remaining distance, and its `arrived` decides the switch to IR guidance.
+  virtual bool has_own_goal() const { return false; }
 };
 
 // 3D-reconstruction visual servoing, eq. 6-25..6-28. The pixel errors

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "harvest/twist_t.hpp"
 #include "runtime/channels.hpp"
 #include "servo/tbz_approach.hpp"
 
@@ -38,9 +39,14 @@ void ServoControllerNode::on_attach() {
     if (authority_.admit_estop(m)) emit(machine_.on_estop(m, now()));
   });
   // Teach by zooming (approach_mode tbz) steers from the feature tracker's verified correspondences.
-  if (auto* tbz = dynamic_cast<TbzApproach*>(&machine_.approach()))
+  if (auto* tbz = dynamic_cast<TbzApproach*>(&machine_.approach())) {
     subscribe<feature_matches_t>(ch::kFeatureMatches, [tbz](const feature_matches_t& m) { tbz->on_matches(m); });
-  every(rt::from_seconds(cfg_.tick_period_s), [this] { emit(machine_.tick(now())); });
+    advertise(kTbzErrorChannel);
+  }
+  every(rt::from_seconds(cfg_.tick_period_s), [this] {
+    emit(machine_.tick(now()));
+    publish_tbz_error();
+  });
   every(rt::from_seconds(cfg_.status_period_s), [this] { publish_status(); });
   spdlog::info("{}approach mode '{}', speed limit {:.3f} m/s, IR switch at {:.1f} mm", log_prefix(), cfg_.approach_mode,
                cfg_.max_linear_speed, cfg_.ir_switch_distance * 1000.0);
@@ -70,6 +76,19 @@ void ServoControllerNode::emit(MachineOutput out) {
     set_health(rt::Health::kDegraded, machine_.summary());
   else
     set_health(rt::Health::kOk);
+}
+
+void ServoControllerNode::publish_tbz_error() {
+  const auto* tbz = dynamic_cast<const TbzApproach*>(&machine_.approach());
+  if (!tbz || !tbz->stepped_at() || *tbz->stepped_at() == tbz_error_published_) return;
+  tbz_error_published_ = *tbz->stepped_at();
+  twist_t e{};
+  const auto& o = tbz->last_output();
+  for (int i = 0; i < 3; ++i) {
+    e.linear[i] = o.e_v[i];
+    e.angular[i] = o.e_w[i];
+  }
+  publish(kTbzErrorChannel, e);
 }
 
 void ServoControllerNode::publish_status() {

@@ -31,6 +31,8 @@ class ServoControllerNode final : public rt::Node {
   security::Authority authority_;
   HarvestMachine machine_;
   std::string last_summary_;
+  rt::Micros tbz_error_published_ = 0;
+  void publish_tbz_error();     // approach_mode tbz: the errors of a new TBZ step on TBZ_ERROR
   rt::LogLimiter invalid_log_;  // invalid inputs are logged at most once a second
 };
 

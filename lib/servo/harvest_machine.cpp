@@ -175,6 +175,7 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   current_ = s.fruit;
   ledger_.begin_attempt(current_->id);
   approach_->reset();
+  approach_note_.clear();
   hand_.forget_fruit();
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
@@ -447,12 +448,25 @@ void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
     return;
   }
   const double remaining = (current_->estimate - t.translation()).dot(t.rotation().col(2));
-  if (remaining > cfg_.ir_switch_distance) {
+  std::string arrived_with;  // the strategy's own word on its arrival
+  if (approach_->has_own_goal()) {
+    // Teach by zooming: servoed to the zoomed view's pose, then IR guidance from wherever that is.
+    const ApproachOutput a = approach_->update({now, t, camera(), current_->estimate, pixel, std::nullopt});
+    if (!a.note.empty() && a.note != approach_note_) {
+      approach_note_ = note_ = a.note;
+      out.status_changed = true;
+    }
+    if (a.arrived ? !*a.arrived : remaining > cfg_.ir_switch_distance) {
+      out.robot = twist(a.twist);
+      return;
+    }
+    if (!a.note.empty()) arrived_with = a.note + "; ";  // how it got here (arrived, or fell back), in the IR line
+  } else if (remaining > cfg_.ir_switch_distance) {
     out.robot = twist(approach_->update({now, t, camera(), current_->estimate, pixel, std::nullopt}).twist);
     return;
   }
   ir_.begin(t.translation(), now);
-  note_ = "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
+  note_ = arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
           (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
            : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
                                                         : " (depth from size)");

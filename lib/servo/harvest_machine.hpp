@@ -93,6 +93,7 @@ class HarvestMachine {
   int64_t workspace_clips() const { return commands_.workspace_clips(); }
   // The approach strategy, for the node to feed strategy-specific inputs (FEATURE_MATCHES for tbz).
   ApproachStrategy& approach() { return *approach_; }
+  const ApproachStrategy& approach() const { return *approach_; }
   std::string approach_name() const { return approach_->name(); }
 
  private:
@@ -170,6 +171,7 @@ class HarvestMachine {
   rt::Micros deadline_ = 0;  // 0: none
   rt::Micros paused_at_ = 0;
   std::string note_;
+  std::string approach_note_;  // the approach strategy's last note (shown once per change)
 
   std::optional<robot_state_t> robot_;
   rt::Micros robot_rx_ = 0;

@@ -119,6 +119,15 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   if (!c.workspace.contains(c.home_pose.translation())) n.fail("home_pose", "a position inside the workspace");
   if (!c.workspace.contains(c.drop_pose.translation())) n.fail("drop_pose", "a position inside the workspace");
 
+  const config::Node tz = n.child("tbz");
+  c.tbz.lambda_w = tz.get(k::tbz::lambda_w);
+  c.tbz.lambda_v = tz.get(k::tbz::lambda_v);
+  c.tbz.desired_depth_estimate = tz.get(k::tbz::desired_depth_estimate);
+  c.tbz.max_match_age_s = tz.get(k::tbz::max_match_age_s);
+  c.tbz.fallback_after_s = tz.get(k::tbz::fallback_after_s);
+  c.tbz.arrived_rotation = tz.get(k::tbz::arrived_rotation);
+  c.tbz.arrived_translation = tz.get(k::tbz::arrived_translation);
+
   const config::Node g = n.child("gains");
   c.gains.kp_lateral = g.get(k::gains::kp_lateral);
   c.gains.kd_lateral = g.get(k::gains::kd_lateral);
@@ -177,6 +186,9 @@ std::vector<config::Section> ServoConfig::schema() {
                       g::derivative_filter, g::centring_tolerance, g::sway_window, g::kp_orient, g::kd_orient),
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost, t::reacquire,
                       t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
+      config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
+                      k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::arrived_rotation,
+                      k::tbz::arrived_translation),
       security::AuthorityConfig::schema("servo_controller.authority", where, security::AuthorityConfig::kSender)};
 }
 

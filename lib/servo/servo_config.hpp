@@ -107,6 +107,15 @@ inline constexpr Key<double> release{"release", 3.0, {0.01, 600.0}, "s", "the gr
 inline constexpr Key<double> robot_state{"robot_state", 0.25, {0.01, 600.0}, "s", "robot state watchdog while running"};
 inline constexpr Key<double> ir_stale{"ir_stale", 0.3, {0.01, 600.0}, "s", "an IR reading older than this: do not advance"};
 }  // namespace timeouts_s
+namespace tbz {  // approach_mode tbz
+inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {0.0, 100.0}, "1/s", "rotation gain (eq. 5-44)"};
+inline constexpr Key<double> lambda_v{"lambda_v", 0.25, {0.0, 1000.0}, "", "translation gain (eq. 5-62)"};
+inline constexpr Key<double> desired_depth_estimate{"desired_depth_estimate", 0.25, {0.01, 10.0}, "m", "Z*_1 hat: the sticker's depth at the goal, roughly"};
+inline constexpr Key<double> max_match_age_s{"max_match_age_s", 0.3, {0.01, 10.0}, "s", "older FEATURE_MATCHES do not steer"};
+inline constexpr Key<double> fallback_after_s{"fallback_after_s", 1.5, {0.0, 60.0}, "s", "no usable matches this long: the 3D-reconstruction approach for this fruit"};
+inline constexpr Key<double> arrived_rotation{"arrived_rotation", 0.0175, {0.0, 1.0}, "rad", "|e_w| at or below this ..."};
+inline constexpr Key<double> arrived_translation{"arrived_translation", 0.01, {0.0, 1.0}, "", "... and |e_v| at or below this: at the goal, IR guidance from there"};
+}  // namespace tbz
 }  // namespace servo_keys
 
 // Axis-aligned box in the base frame plus a reach shell around the base
@@ -241,6 +250,16 @@ struct ServoConfig {
   Timeouts timeouts;
   geometry::CameraModel hand_camera = kDefaultHandCamera;
   std::string approach_mode{servo_keys::approach_mode.fallback};  // pluggable approach strategy (approach.hpp)
+  // approach_mode tbz (servo/tbz_approach.hpp, docs/teach-by-zooming.md).
+  struct Tbz {
+    double lambda_w = servo_keys::tbz::lambda_w.fallback;
+    double lambda_v = servo_keys::tbz::lambda_v.fallback;
+    double desired_depth_estimate = servo_keys::tbz::desired_depth_estimate.fallback;
+    double max_match_age_s = servo_keys::tbz::max_match_age_s.fallback;
+    double fallback_after_s = servo_keys::tbz::fallback_after_s.fallback;
+    double arrived_rotation = servo_keys::tbz::arrived_rotation.fallback;
+    double arrived_translation = servo_keys::tbz::arrived_translation.fallback;
+  } tbz;
   // ORIENT in place: "pose_goal" (a pose goal the robot link runs along a
   // smooth path) or "thesis_pd" (the thesis's PD law on the aim angles,
   // eq. 6-24, as tool twists, also holding the roll about the gripper axis

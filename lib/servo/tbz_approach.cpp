@@ -1,5 +1,8 @@
 #include "servo/tbz_approach.hpp"
 
+#include <cmath>
+#include <cstdio>
+
 #include "control/tbz_matches.hpp"
 
 namespace harvest::servo {
@@ -10,6 +13,15 @@ TbzApproachParams tbz_params_from(const ServoConfig& config) {
   p.controller.A_hat << c.fx, c.skew, c.cx, 0, c.fy, c.cy, 0, 0, 1;
   p.controller.max_linear_speed = config.max_linear_speed;
   p.controller.max_angular_speed = config.max_angular_speed;
+  p.controller.lambda_w = config.tbz.lambda_w;
+  p.controller.lambda_v = config.tbz.lambda_v;
+  p.controller.desired_depth_estimate = config.tbz.desired_depth_estimate;
+  p.max_match_age_s = config.tbz.max_match_age_s;
+  p.fallback_after_s = config.tbz.fallback_after_s;
+  p.arrived_rotation = config.tbz.arrived_rotation;
+  p.arrived_translation = config.tbz.arrived_translation;
+  p.gains = config.gains;
+  p.camera = config.hand_camera;
   return p;
 }
 
@@ -21,7 +33,8 @@ control::TbzParams controller_params(const TbzApproachParams& p) {
 }
 }  // namespace
 
-TbzApproach::TbzApproach(TbzApproachParams params) : params_(std::move(params)), ctrl_(controller_params(params_)) {}
+TbzApproach::TbzApproach(TbzApproachParams params)
+    : params_(std::move(params)), ctrl_(controller_params(params_)), fallback_(params_.gains, params_.camera) {}
 
 void TbzApproach::reset() {
   anchors_.clear();
@@ -29,19 +42,56 @@ void TbzApproach::reset() {
   ctrl_.reset();
   last_ = {};
   refusal_.clear();
+  fallback_.reset();
+  fell_back_ = false;
+  refusing_since_.reset();
+  started_at_.reset();
+  stepped_at_.reset();
+  fallback_note_.clear();
 }
 
 void TbzApproach::on_matches(const feature_matches_t& m) { matches_ = m; }
 
 ApproachOutput TbzApproach::update(const ApproachInput& in) {
-  ApproachOutput out;
-  out.error.setZero();
-  const Eigen::Matrix3d R_tool = in.tool.rotation();
-  if (in.forward_speed) {  // IR guidance: straight on along the camera axis
-    out.twist.linear = in.camera.rotation() * Eigen::Vector3d(0, 0, *in.forward_speed);
-    refusal_.clear();
+  if (in.forward_speed || fell_back_) {  // IR guidance, or no features on this fruit: as the reconstruction approach
+    ApproachOutput out = fallback_.update(in);
+    out.note = fallback_note_;
     return out;
   }
+  if (!started_at_) started_at_ = in.now;
+  ApproachOutput out = step(in);
+  if (refusal_.empty()) {
+    refusing_since_.reset();
+    out.note = "teach by zooming";
+    if (*out.arrived) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, " arrived after %.1f s (rotation error %.2f deg, translation error %.4f)",
+                    rt::to_seconds(in.now - *started_at_), last_.e_w.norm() * 180.0 / M_PI, last_.e_v.norm());
+      out.note += buf;
+    }
+    return out;
+  }
+  if (!refusing_since_) refusing_since_ = in.now;
+  const double refusing_s = rt::to_seconds(in.now - *refusing_since_);
+  if (refusing_s < params_.fallback_after_s) {
+    // A frame or two without matches is not news (HARVEST_STATUS goes out on every change of the note).
+    out.note = refusing_s < 0.5 * params_.fallback_after_s ? "teach by zooming"
+                                                           : "teach by zooming: waiting (" + refusal_ + ")";
+    return out;
+  }
+  // The thesis's finding (section 5.7): no features to match on natural fruit. Approach it as without TBZ.
+  fell_back_ = true;
+  fallback_note_ = "teach by zooming impossible (" + refusal_ + "), falling back to the 3D-reconstruction approach";
+  out = fallback_.update(in);
+  out.note = fallback_note_;
+  return out;
+}
+
+ApproachOutput TbzApproach::step(const ApproachInput& in) {
+  ApproachOutput out;
+  out.error.setZero();
+  out.arrived = false;
+  const Eigen::Matrix3d R_tool = in.tool.rotation();
   if (!matches_) {
     refusal_ = "no FEATURE_MATCHES yet";
     return out;
@@ -73,6 +123,7 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
     return out;
   }
   refusal_.clear();
+  stepped_at_ = in.now;
   // With the hand-eye rotation taken from the poses the controller works in
   // the camera frame (R_r_hat = I) and its twist is rotated into the base
   // frame with the camera's orientation; otherwise with the tool's.
@@ -80,6 +131,7 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   out.twist.linear = R_out * last_.robot.v;
   out.twist.angular = R_out * last_.robot.w;
   out.error = last_.e_v;
+  out.arrived = last_.e_w.norm() <= params_.arrived_rotation && last_.e_v.norm() <= params_.arrived_translation;
   return out;
 }
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "sim/plane_patch.hpp"
+
 namespace harvest::sim {
 namespace {
 
@@ -38,54 +40,21 @@ float BoardPrimitive::ink(double u, double v) const {
 void BoardPrimitive::draw(Renderer::Canvas& canvas, const Mat3& rotation, const Vec3& translation) const {
   // Board frame in the camera frame.
   const Mat3 r = rotation * pose_.rotation;
-  const Vec3 o = rotation * pose_.position + translation;
-  const Eigen::Vector3d ex = r.col(0), ey = r.col(1), n = r.col(2);
   const double m = spec_.margin_m;
-  // Plate corners -> normalised box (only if the whole plate is in front of the lens).
-  double ax = 1e30, bx = -1e30, ay = 1e30, by = -1e30;
-  for (const double u : {-m, width_m_ + m})
-    for (const double v : {-m, height_m_ + m}) {
-      const Vec3 p = o + u * ex + v * ey;
-      if (p.z() <= 0.01) return;
-      ax = std::min(ax, p.x() / p.z());
-      bx = std::max(bx, p.x() / p.z());
-      ay = std::min(ay, p.y() / p.z());
-      by = std::max(by, p.y() / p.z());
-    }
-  const Renderer::PixelBox b =
-      canvas.pixels(static_cast<float>(ax), static_cast<float>(bx), static_cast<float>(ay), static_cast<float>(by));
-  const double nc = n.dot(o);
-  const bool front = nc > 0.0;  // the camera is on the printed side (-z)
-  const Eigen::Vector3f normal = (front ? n : -n).cast<float>();
-  const int w = canvas.width(), h = canvas.height();
-  for (int y = b.y0; y <= b.y1; ++y) {
-    for (int x = b.x0; x <= b.x1; ++x) {
-      const int i = y * w + x;
-      const Eigen::Vector3d d = canvas.ray(i).cast<double>();
-      // Sub-pixel rays from the neighbours' (the ray field is smooth).
-      const int ix = x + 1 < w ? i + 1 : i - 1, iy = y + 1 < h ? i + w : i - w;
-      const Eigen::Vector3d dx = (canvas.ray(ix).cast<double>() - d) * (x + 1 < w ? 1.0 : -1.0);
-      const Eigen::Vector3d dy = (canvas.ray(iy).cast<double>() - d) * (y + 1 < h ? 1.0 : -1.0);
-      const double nd = n.dot(d);
-      if (std::abs(nd) < 1e-9) continue;
-      const double depth = nc / nd;
-      const Vec3 q = depth * d - o;
-      const double u = q.dot(ex), v = q.dot(ey);
-      if (u < -m || v < -m || u > width_m_ + m || v > height_m_ + m) continue;
-      double shade = kBack;
-      if (front) {
-        float sum = 0.0f;
-        for (int k = 0; k < kSub; ++k) {
-          const int sy = (k * kStride) % kSub;
-          const Eigen::Vector3d ds = d + ((k + 0.5) / kSub - 0.5) * dx + ((sy + 0.5) / kSub - 0.5) * dy;
-          const Vec3 qs = (nc / n.dot(ds)) * ds - o;
-          sum += ink(qs.dot(ex), qs.dot(ey));
-        }
-        shade = kBlack + (kWhite - kBlack) * sum / kSub;
-      }
-      canvas.put(i, static_cast<float>(depth), Vec3(shade, shade, shade), normal);
-    }
-  }
+  const PlanePatch patch{rotation * pose_.position + translation,
+                         r.col(0),
+                         r.col(1),
+                         r.col(2),
+                         -m,
+                         width_m_ + m,
+                         -m,
+                         height_m_ + m,
+                         kSub,
+                         kStride};
+  draw_plane_patch(canvas, patch, [this](double u, double v, bool front) {
+    const double shade = front ? kBlack + (kWhite - kBlack) * ink(u, v) : kBack;
+    return Vec3(shade, shade, shade);
+  });
 }
 
 }  // namespace harvest::sim

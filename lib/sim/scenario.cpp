@@ -1,5 +1,6 @@
 #include "sim/scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/board.hpp"
@@ -116,6 +117,7 @@ Scenario Scenario::from_config(const config::Node& root) {
       FruitSpec spec;
       spec.position = vec3_mm(f, kl::position_mm);
       spec.diameter = f.get(sk::fruit::diameter_mm) * kMm;
+      spec.sticker = f.get(sk::fruit::sticker_mm) * kMm;
       s.fruit.push_back(spec);
     }
   }
@@ -227,6 +229,14 @@ Scenario Scenario::from_config(const config::Node& root) {
     }
   }
 
+  if (root.has("zoom")) {
+    const auto z = root.child("zoom");
+    s.zoom.fruit = z.get(sk::zoom::fruit);
+    if (s.zoom.fruit >= static_cast<int>(s.fruit.size())) z.fail("fruit", "an index into the scenario's fruit list");
+    s.zoom.distance = z.get(sk::zoom::distance_mm) * kMm;
+    s.zoom.rate_hz = z.get(sk::zoom::rate_hz);
+  }
+
   const auto g = root.child("gripper");
   s.gripper.close_time_s = g.get(sk::gripper::close_time_s);
   s.gripper.open_time_s = g.get(sk::gripper::open_time_s);
@@ -269,7 +279,10 @@ std::vector<config::Section> Scenario::schema() {
       section("scenario", where, sk::top::name, sk::top::description, sk::top::seed, sk::top::time_limit_s),
       section("scenario.fruit_size", where, sk::fruit_size::mean_mm, sk::fruit_size::std_mm, sk::fruit_size::min_mm,
               sk::fruit_size::max_mm),
-      section("scenario.fruit[]", "Fruit placed by hand.", kl::position_mm, sk::fruit::diameter_mm),
+      section("scenario.fruit[]", "Fruit placed by hand.", kl::position_mm, sk::fruit::diameter_mm,
+              sk::fruit::sticker_mm),
+      section("scenario.zoom", "CAMERA_FIXED_ZOOM (teach by zooming): present, the fixed camera zooms on one fruit.",
+              sk::zoom::fruit, sk::zoom::distance_mm, sk::zoom::rate_hz),
       section("scenario.random_fruit", where, sk::random_fruit::count, kl::region_min_mm, kl::region_max_mm,
               sk::random_fruit::min_separation_mm),
       section("scenario.canopy", where, sk::canopy::leaves, kl::region_min_mm, kl::region_max_mm,
@@ -319,6 +332,9 @@ Scenario Scenario::for_run(int run) const {
   if (!v.fruit.empty()) {
     s.fruit.clear();
     for (int i : v.fruit) s.fruit.push_back(fruit[static_cast<std::size_t>(i)]);
+    // The zoom follows its fruit into the subset (none when the run leaves it out).
+    const auto at = std::find(v.fruit.begin(), v.fruit.end(), zoom.fruit);
+    s.zoom.fruit = zoom.enabled() && at != v.fruit.end() ? static_cast<int>(at - v.fruit.begin()) : -1;
   }
   return s;
 }

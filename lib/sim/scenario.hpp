@@ -40,7 +40,13 @@ inline constexpr Key<double> max_mm{"max_mm", 76.0, {10.0, 200.0}, "mm", "at lea
 }  // namespace fruit_size
 namespace fruit {
 inline constexpr Key<double> diameter_mm{"diameter_mm", 0.0, {0.0, 200.0}, "mm", "0: drawn from fruit_size"};
+inline constexpr Key<double> sticker_mm{"sticker_mm", 0.0, {0.0, 200.0}, "mm", "side of a printed square sticker facing the fixed camera (teach by zooming); 0: none"};
 }  // namespace fruit
+namespace zoom {  // CAMERA_FIXED_ZOOM, teach by zooming's desired image
+inline constexpr Key<int> fruit{"fruit", 0, {0, 10000}, "", "index of the fruit the fixed camera zooms on"};
+inline constexpr Key<double> distance_mm{"distance_mm", 200.0, {20.0, 5000.0}, "mm", "the zoomed view is the hand camera's from this far along the fixed camera's line of sight"};
+inline constexpr Key<double> rate_hz{"rate_hz", 1.0, {0.1, 120.0}, "Hz", "zoomed snapshots per second"};
+}  // namespace zoom
 namespace random_fruit {
 inline constexpr Key<int> count{"count", 0, {0, 500}, "", "fruit drawn in the region"};
 inline constexpr Key<double> min_separation_mm{"min_separation_mm", 90.0, {0.0, 1000.0}, "mm", "centre to centre"};
@@ -201,6 +207,21 @@ struct CameraSetup {
 struct FruitSpec {
   Vec3 position;          // base frame [m]
   double diameter = 0.0;  // [m]; 0: drawn from the size distribution
+  double sticker = 0.0;   // [m] side of a printed square sticker facing the fixed camera (sim/sticker.hpp); 0: none
+};
+
+// CAMERA_FIXED_ZOOM, the desired image of teach by zooming: the fixed camera
+// turned and zoomed onto one fruit as a pan-tilt-zoom camera would (a
+// virtual camera at the fixed camera's true position, upright, its axis
+// through the fruit's sticker, or its peel facing it), with the hand camera's
+// image size and true intrinsics, the focal length times (distance to the
+// sticker) / `distance`: the sticker looks as the camera-in-hand would see it
+// from `distance` along the fixed camera's line of sight.
+struct Zoom {
+  int fruit = -1;  // index into Scenario::fruit; -1: no zoomed camera
+  double distance = scenario_keys::zoom::distance_mm.fallback * 1e-3;  // [m] from the sticker (or the peel)
+  double rate_hz = scenario_keys::zoom::rate_hz.fallback;  // every new desired image restarts the matching
+  bool enabled() const { return fruit >= 0; }
 };
 
 struct SizeDistribution {
@@ -372,6 +393,7 @@ struct Scenario {
   IrSetup ir;
   Faults faults;
   std::vector<BoardSetup> boards;  // calibration boards in the scene
+  Zoom zoom;
 
   static Scenario from_config(const config::Node& node);
   static std::vector<config::Section> schema();

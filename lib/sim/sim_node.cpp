@@ -1,11 +1,10 @@
 #include "sim/sim_node.hpp"
 
-#include <limits>
-
 #include <spdlog/spdlog.h>
 
 #include <cerrno>
 #include <cstring>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 
@@ -20,6 +19,8 @@
 #include "runtime/channels.hpp"
 #include "sim/board.hpp"
 #include "sim/ports.hpp"
+#include "sim/splitmix.hpp"
+#include "sim/sticker.hpp"
 
 namespace harvest::sim {
 namespace {
@@ -99,6 +100,31 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
     fixed_renderer_.add_primitive(board);
     hand_renderer_.add_primitive(board);
   }
+  // Stickers face the fixed camera (the side of the fruit facing the aisle).
+  const Vec3 fixed_at = scenario_.fixed_camera_truth.position;
+  stickers_.resize(scene_.fruit().size());
+  for (std::size_t k = 0; k < scenario_.fruit.size(); ++k)
+    if (scenario_.fruit[k].sticker > 0.0)
+      stickers_[k] = std::make_shared<const StickerPrimitive>(scene_, k, scenario_.fruit[k].sticker, fixed_at,
+                                                              splitmix_hash(scenario_.seed) + k);
+  if (scenario_.zoom.enabled()) {
+    // Zoomed so the fruit looks as from the camera-in-hand at zoom.distance: the hand camera's true intrinsics
+    // with the focal length times the distance ratio.
+    geometry::CameraModel m = scenario_.hand_camera.model;
+    const double k = (zoom_aim() - fixed_at).norm() / scenario_.zoom.distance;
+    m.fx *= k;
+    m.fy *= k;
+    m.skew *= k;
+    m.dist.fill(0.0);  // a long focal length: no visible distortion
+    zoom_renderer_.emplace(m, scenario_.fixed_camera.noise_std, scenario_.seed + 4);
+    zoom_renderer_->set_look(scenario_.look, scenario_.zoom.rate_hz);
+  }
+  for (const auto& sticker : stickers_) {
+    if (!sticker) continue;
+    fixed_renderer_.add_primitive(sticker);
+    hand_renderer_.add_primitive(sticker);
+    if (zoom_renderer_) zoom_renderer_->add_primitive(sticker);
+  }
   // What the fixed camera sees of each fruit before anything moves decides
   // which fruit the run is scored on.
   fixed_renderer_.render(scene_, scenario_.fixed_camera_truth);
@@ -162,6 +188,10 @@ void SimNode::on_attach() {
   every(period(config_.physics_rate_hz), [this] { physics_tick(); });
   every(period(scenario_.fixed_camera.rate_hz), [this] { render_camera(true); });
   every(period(scenario_.hand_camera.rate_hz), [this] { render_camera(false); });
+  if (zoom_renderer_) {
+    advertise(channels::kCameraFixedZoom);
+    every(period(scenario_.zoom.rate_hz), [this] { render_zoom(); });
+  }
   every(period(config_.truth_rate_hz), [this] { publish_truth(); });
 
   int counted = 0;
@@ -333,6 +363,29 @@ void SimNode::render_camera(bool fixed) {
   img.header.frame_id = fixed ? "camera_fixed" : "camera_hand";
   img.header.source_seq = -1;
   publish(fixed ? channels::kCameraFixed : channels::kCameraHand, img);
+}
+
+Vec3 SimNode::zoom_aim() const {
+  const auto k = static_cast<std::size_t>(scenario_.zoom.fruit);
+  if (stickers_[k]) return stickers_[k]->centre();
+  const Fruit& f = scene_.fruit()[k];
+  return f.position + f.radius * (scenario_.fixed_camera_truth.position - f.position).normalized();
+}
+
+void SimNode::render_zoom() {
+  // A zoomed view of a fruit no longer on the tree shows nothing to servo to.
+  if (scene_.fruit()[static_cast<std::size_t>(scenario_.zoom.fruit)].state != FruitState::kOnTree) {
+    count("zoom_frames_skipped");
+    return;
+  }
+  const Vec3 from = scenario_.fixed_camera_truth.position;
+  const cv::Mat& bgr = zoom_renderer_->render(scene_, {look_at_rotation(from, zoom_aim()), from});
+  const CameraSetup& cam = scenario_.hand_camera;  // the zoomed image stands for the hand camera's desired view
+  image_t img = make_image(bgr, cam.encoding, cam.jpeg_quality, cam.sensor_width, cam.sensor_height);
+  img.header.utime = now();
+  img.header.frame_id = "camera_fixed_zoom";
+  img.header.source_seq = -1;
+  publish(channels::kCameraFixedZoom, img);
 }
 
 void SimNode::publish_truth() {

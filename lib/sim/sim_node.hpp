@@ -98,6 +98,10 @@ class SimNode final : public rt::Node {
   double sim_time() const;  // [s] since the node started
   void physics_tick();
   void render_camera(bool fixed);
+  void render_zoom();
+  // Teach by zooming's desired image: where the zoomed camera looks (sticker centre, or the peel facing the fixed
+  // camera).
+  Vec3 zoom_aim() const;
   void publish_truth();
   void publish_robot_state();
   void publish_ir();
@@ -121,6 +125,8 @@ class SimNode final : public rt::Node {
   Gripper gripper_;
   IrSensor ir_;
   Renderer fixed_renderer_, hand_renderer_;
+  std::vector<std::shared_ptr<const class StickerPrimitive>> stickers_;  // per fruit, null without a sticker
+  std::optional<Renderer> zoom_renderer_;                                // scenario zoom: CAMERA_FIXED_ZOOM
   std::vector<float> fixed_visible_fraction_;
   std::optional<double> ir_range_;
   int ir_stuck_raw_ = -1;

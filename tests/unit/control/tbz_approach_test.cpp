@@ -121,3 +121,92 @@ TEST(TbzApproach, NoMotionWithoutFreshVerifiedMatches) {
   EXPECT_LT((out.twist.linear - camera.linear() * Vector3d(0, 0, 0.1)).norm(), 1e-12);
   EXPECT_EQ(out.twist.angular.norm(), 0.0);
 }
+
+// Teach by zooming servos to its own goal: `arrived` once both errors are
+// within the thresholds, with the convergence time in the note.
+TEST(TbzApproach, SaysWhenItHasArrived) {
+  s::TbzApproach approach(params());
+  EXPECT_TRUE(approach.has_own_goal());
+  Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();
+  camera.linear() = g::rotation_from_vector(Vector3d(0.05, -0.1, 0.1));
+  camera.translation() = Vector3d(0.03, -0.02, -0.05);
+  int first_arrived = -1;
+  std::string note;
+  for (int k = 0; k < 400 && first_arrived < 0; ++k) {
+    const int64_t now = 1'000'000 + k * 20'000;
+    approach.on_matches(matches(camera, now));
+    const auto out = approach.update({now, camera, camera, Vector3d::Zero(), std::nullopt, std::nullopt});
+    ASSERT_TRUE(out.arrived.has_value());
+    if (*out.arrived) {
+      first_arrived = k;
+      note = out.note;
+      const auto& e = approach.last_output();
+      EXPECT_LE(e.e_w.norm(), 0.0175);
+      EXPECT_LE(e.e_v.norm(), 0.01);
+    } else {
+      EXPECT_EQ(out.note, "teach by zooming");
+    }
+    camera.translation() += out.twist.linear * 0.02;
+    camera.linear() = g::rotation_from_vector(out.twist.angular * 0.02) * camera.linear();
+  }
+  std::printf("arrived at step %d: %s\n", first_arrived, note.c_str());
+  EXPECT_GT(first_arrived, 10);  // not at the start, 58 mm away
+  EXPECT_NE(note.find("teach by zooming arrived after"), std::string::npos) << note;
+  EXPECT_LT(camera.translation().norm(), 0.01);
+}
+
+// Natural fruit (thesis section 5.7): the tracker finds too few matches. After
+// fallback_after_s of that the approach to this fruit is the 3D-reconstruction
+// one, and its note says why; a new fruit (reset) tries teach by zooming again.
+TEST(TbzApproach, FallsBackToTheReconstructionApproachWithoutFeatures) {
+  auto p = params();
+  p.fallback_after_s = 1.0;
+  p.camera.fx = p.camera.fy = 500;
+  p.camera.cx = 320;
+  p.camera.cy = 240;
+  s::TbzApproach approach(p);
+  s::ReconstructionApproach reference(p.gains, p.camera);
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  const Vector3d fruit(0.03, -0.01, 0.5);
+  auto input = [&](int64_t now) {
+    return s::ApproachInput{now, tool, tool, fruit, s::PixelMeasurement{380.0, 230.0, now}, std::nullopt};
+  };
+  harvest::feature_matches_t none{};
+  none.status = harvest::feature_matches_t::STATUS_TOO_FEW;
+  none.status_text = "0 descriptor matches (0 desired, 3 current keypoints)";
+  for (int k = 0; k <= 60; ++k) {
+    const int64_t now = 1'000'000 + k * 20'000;  // 1.2 s
+    none.header.utime = now;
+    approach.on_matches(none);
+    const auto out = approach.update(input(now));
+    if (k < 50) {  // under a second: waiting for matches, holding still
+      EXPECT_FALSE(approach.fell_back()) << k;
+      EXPECT_EQ(out.twist.linear.norm() + out.twist.angular.norm(), 0.0) << k;
+      if (k < 25)  // not news yet
+        EXPECT_EQ(out.note, "teach by zooming");
+      else
+        EXPECT_NE(out.note.find("waiting (feature matches: 0 descriptor matches"), std::string::npos) << out.note;
+      ASSERT_TRUE(out.arrived.has_value());
+      EXPECT_FALSE(*out.arrived);
+    } else {
+      EXPECT_TRUE(approach.fell_back()) << k;
+      EXPECT_NE(out.note.find("teach by zooming impossible (feature matches: 0 descriptor matches"), std::string::npos)
+          << out.note;
+      EXPECT_NE(out.note.find("falling back to the 3D-reconstruction approach"), std::string::npos) << out.note;
+      // The machine switches to IR guidance by distance again, and the twist is the reconstruction's.
+      EXPECT_FALSE(out.arrived.has_value());
+      const auto ref = reference.update(input(now));
+      EXPECT_LT((out.twist.linear - ref.twist.linear).norm(), 1e-12);
+      EXPECT_GT(out.twist.linear.norm(), 0.0);
+    }
+  }
+  // Even verified matches arriving later do not switch this fruit back.
+  approach.on_matches(matches(tool, 2'300'000));
+  EXPECT_TRUE(approach.fell_back());
+  approach.update(input(2'300'000));
+  EXPECT_TRUE(approach.fell_back());
+  approach.reset();
+  EXPECT_FALSE(approach.fell_back());
+  const auto out = approach.update(input(2'300'000));
+  EXPECT_EQ(out.note.find("impossible"), std::string::npos) << out.note;
+}
