@@ -35,17 +35,29 @@ function(harvest_process name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} harvest_warnings)
 endfunction()
 
-# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS ...] [RESOURCE_LOCK NAME]):
+# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS L] [RESOURCE_LOCK NAME]):
 # a GoogleTest binary registered with CTest. Tests run from the source root so
 # fixtures can be found as config/..., logs/... Tests holding the same
-# RESOURCE_LOCK never run at the same time under ctest -j.
+# RESOURCE_LOCK never run at the same time under ctest -j. One label only:
+# gtest_discover_tests (CMake 3.25) writes a list-valued property unquoted,
+# and the properties after it (TIMEOUT, RESOURCE_LOCK) were lost. ctest -L
+# takes a regular expression: -L integration selects integration-realtime.
 function(harvest_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
+  list(LENGTH ARG_LABELS n_labels)
+  if(n_labels GREATER 1)
+    message(FATAL_ERROR "harvest_test(${name}): one label only (e.g. integration-realtime), got '${ARG_LABELS}'")
+  endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
+  endif()
+  # Real-time tests measure deadlines and whole process sets: one at a time
+  # (beside the rest of the suite), or they starve each other on 2 cores.
+  if(ARG_LABELS STREQUAL "integration-realtime" AND NOT ARG_RESOURCE_LOCK)
+    set(ARG_RESOURCE_LOCK harvest_realtime)
   endif()
   set(lock "")
   if(ARG_RESOURCE_LOCK)
