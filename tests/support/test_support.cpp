@@ -1,8 +1,11 @@
 #include "test_support.hpp"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -25,9 +28,31 @@
 
 namespace harvest::testing {
 
+namespace {
+// Nobody on this host has a UDP socket on the port now. LCM shares its port
+// with SO_REUSEADDR, but a test's virtual CAN bus or another tool bound
+// without it makes LCM's bind fail ("bind: Address already in use") and the
+// test hear nothing.
+bool udp_port_free(int port) {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) return true;
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_ANY);
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  const bool ok = bind(fd, reinterpret_cast<const sockaddr*>(&a), sizeof a) == 0;
+  close(fd);
+  return ok;
+}
+}  // namespace
+
 std::string unique_lcm_url() {
   static std::atomic<int> counter{0};
-  const int port = 20000 + static_cast<int>((getpid() * 7 + counter++ * 13) % 40000);
+  int port = 0;
+  for (int tries = 0; tries < 100; ++tries) {
+    port = 20000 + static_cast<int>((getpid() * 7 + counter++ * 13) % 40000);
+    if (udp_port_free(port)) break;
+  }
   return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
 }
 
