@@ -56,6 +56,12 @@ std::string render_table(const std::vector<StatusRow>& rows, std::size_t width) 
   return out;
 }
 
+std::string seconds_text(int64_t microseconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f s", static_cast<double>(microseconds) * 1e-6);
+  return buf;
+}
+
 std::string prefixed_line(const std::string& source, const std::string& text) {
   // spdlog pattern of every harvest process: "%H:%M:%S.%e %l [%n] %v" (runtime/process_main.cpp).
   const std::string tag = " [" + source + "] ";

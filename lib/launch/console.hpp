@@ -30,6 +30,9 @@ struct StatusRow {
 // names its process once and always first.
 std::string prefixed_line(const std::string& source, const std::string& text);
 
+// A duration or age as the launcher and the sheriff print it: "1.5 s".
+std::string seconds_text(int64_t microseconds);
+
 // Fixed-width table, header first, one row per process; every row ends with '\n'.
 // A HOST column comes first when a row names a host, CPU and MEM columns
 // after STATE when a row has them measured.

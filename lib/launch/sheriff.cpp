@@ -1,7 +1,6 @@
 #include "launch/sheriff.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <harvest/launch_order_t.hpp>
 #include <stdexcept>
 
@@ -10,11 +9,6 @@
 namespace harvest::launch {
 
 namespace {
-std::string seconds(rt::Micros us) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f s", rt::to_seconds(us));
-  return buf;
-}
 const harvest::deputy_process_t* find(const harvest::deputy_status_t& s, const std::string& name) {
   for (const auto& p : s.processes)
     if (p.name == name) return &p;
@@ -83,7 +77,7 @@ void Sheriff::tick() {
   for (auto& [name, seen] : deputies_) {
     if (!seen.lost && now() - seen.at > options_.lost_after) {
       seen.lost = true;
-      say("deputy " + name + " lost (no status for " + seconds(now() - seen.at) + ")");
+      say("deputy " + name + " lost (no status for " + seconds_text(now() - seen.at) + ")");
     }
   }
   if (options_.list_after && now() - started_ >= *options_.list_after) {
@@ -95,14 +89,14 @@ void Sheriff::tick() {
   const std::string target = o.deputy + "/" + o.process;
   if (now() - started_ > options_.order_timeout) {
     if (step_ == Step::kWaitDeputy)
-      finish(1, "no status from deputy " + o.deputy + " in " + seconds(options_.order_timeout));
+      finish(1, "no status from deputy " + o.deputy + " in " + seconds_text(options_.order_timeout));
     else if (step_ == Step::kWaitAck)
       finish(1, "deputy " + o.deputy + " did not acknowledge the " + action_name(o.action) + " of " + target +
                     (deputies_[o.deputy].status.orders_refused > refused_at_send_
                          ? ": it refused the order (the key or sender is not one it obeys: docs/security.md)"
                          : ""));
     else
-      finish(1, target + " did not reach the ordered state in " + seconds(options_.order_timeout));
+      finish(1, target + " did not reach the ordered state in " + seconds_text(options_.order_timeout));
     return;
   }
   if (step_ == Step::kWaitAck && now() - sent_at_ >= options_.resend_after) send_order();
@@ -187,7 +181,7 @@ std::vector<StatusRow> Sheriff::rows() const {
       if (p.last_exit >= 0) r.last_exit = std::to_string(p.last_exit);
       r.heartbeat_age_s = p.heartbeat_age_s;
       if (p.heartbeat_age_s >= 0)
-        r.heartbeat = seconds(static_cast<rt::Micros>(p.heartbeat_age_s * 1e6));
+        r.heartbeat = seconds_text(static_cast<rt::Micros>(p.heartbeat_age_s * 1e6));
       else
         r.heartbeat = "-";
       r.message = p.message;

@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <system_error>
 
 #include "runtime/channels.hpp"
@@ -13,11 +12,6 @@
 namespace harvest::launch {
 
 namespace {
-std::string seconds(rt::Micros us) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f s", rt::to_seconds(us));
-  return buf;
-}
 rt::Micros micros(double s) { return static_cast<rt::Micros>(s * 1e6); }
 constexpr rt::Micros kRecorderSettle = 300 * rt::kMilli;
 }  // namespace
@@ -188,7 +182,7 @@ void Supervisor::on_exit(Managed& m, int code) {
     say(m.spec.name + " stopped (" + how + ")");
     return;
   }
-  say(m.spec.name + " " + how + " after " + seconds(now() - m.started));
+  say(m.spec.name + " " + how + " after " + seconds_text(now() - m.started));
   if (m.ordered) {
     // Stopped on an order: neither its restart policy nor ends_set nor critical applies.
     const OrderAction a = *m.ordered;
@@ -218,7 +212,8 @@ void Supervisor::on_exit(Managed& m, int code) {
     count("restarts." + m.spec.name);
     m.phase = Phase::kBackoff;
     m.restart_at = now() + micros(*delay);
-    say("restarting " + m.spec.name + " in " + seconds(micros(*delay)) + " (restart " + std::to_string(m.restarts) +
+    say("restarting " + m.spec.name + " in " + seconds_text(micros(*delay)) + " (restart " +
+        std::to_string(m.restarts) +
         (m.spec.restart.max_restarts >= 0 ? " of " + std::to_string(m.spec.restart.max_restarts) : "") + ")");
     return;
   }
@@ -295,7 +290,7 @@ OrderResult Supervisor::order(const std::string& process, OrderAction action) {
 void Supervisor::check_ordered_stops() {
   for (auto& m : procs_) {
     if (!m.ordered || m.pid <= 0 || m.kill_at == 0 || now() < m.kill_at) continue;
-    say(m.spec.name + " did not stop within " + seconds(micros(m.spec.stop_timeout_s)) + ": SIGKILL");
+    say(m.spec.name + " did not stop within " + seconds_text(micros(m.spec.stop_timeout_s)) + ": SIGKILL");
     signal_group(m.pid, SIGKILL);
     m.kill_at = 0;  // reaped on a later tick
   }
@@ -308,7 +303,7 @@ void Supervisor::check_heartbeats() {
     if (!m.heartbeat_lost && age > micros(m.spec.heartbeat_timeout_s)) {
       m.heartbeat_lost = true;
       count("heartbeats_lost");
-      say(m.spec.name + ": heartbeat lost (no PROCESS_STATUS for " + seconds(age) + ")");
+      say(m.spec.name + ": heartbeat lost (no PROCESS_STATUS for " + seconds_text(age) + ")");
     }
   }
 }
@@ -372,7 +367,7 @@ void Supervisor::advance_shutdown() {
     for (std::size_t i : stage) {
       Managed& m = procs_[i];
       if (m.pid <= 0) continue;
-      say(m.spec.name + " did not stop within " + seconds(micros(m.spec.stop_timeout_s)) + ": SIGKILL");
+      say(m.spec.name + " did not stop within " + seconds_text(micros(m.spec.stop_timeout_s)) + ": SIGKILL");
       signal_group(m.pid, SIGKILL);
     }
     return;  // reaped on the next tick
@@ -405,7 +400,7 @@ std::vector<StatusRow> Supervisor::rows() const {
     else if (m.last_beat < 0)
       r.heartbeat = "none yet";
     else {
-      r.heartbeat = seconds(now() - m.last_beat);
+      r.heartbeat = seconds_text(now() - m.last_beat);
       r.heartbeat_age_s = rt::to_seconds(now() - m.last_beat);
     }
     r.message = m.reported_message;
