@@ -20,6 +20,7 @@
 #include "config/config.hpp"
 #include "features/nodes.hpp"
 #include "logtools/explain.hpp"
+#include "runtime/allocator.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/log_io.hpp"
 #include "runtime/replay_runner.hpp"
@@ -391,6 +392,7 @@ int replay_main(int argc, char** argv) {
     for (const auto& n : node_registry()) std::cout << n.process << "\t" << n.summary << "\n";
     return 0;
   }
+  if (!rt::keep_freed_memory()) std::cerr << "harvest-replay: the allocator refused its settings (a slower replay)\n";
   const int rc = run_replay_tool(o, std::cout, std::cerr);
   if (!temporary_out.empty()) std::filesystem::remove(temporary_out);
   return rc;

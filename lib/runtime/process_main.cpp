@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "runtime/allocator.hpp"
 #include "runtime/heartbeat.hpp"
 #include "runtime/live_runner.hpp"
 #include "runtime/netcheck.hpp"
@@ -97,6 +98,7 @@ int run_process(int argc, char** argv, const std::string& process, const NodeFac
       if (!f.ok) spdlog::warn("network: {}; fix: {}", f.what, f.fix);
   }
 
+  if (!keep_freed_memory()) spdlog::warn("the allocator refused its settings: large blocks are unmapped when freed");
   try {
     LiveRunner runner(LiveOptions{lcm_url, prefix});
     std::string cmdline;

@@ -33,7 +33,7 @@ void FruitDetector::finish(Fruit& f, cv::Size image) const {
 }
 void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Fruit>& out) const {
   if (piece.area <= static_cast<double>(config_.min_area_px) || piece.area <= 0 || piece.contour.empty()) return;
-  const cv::Moments& mo = piece.moments;
+  const MaskMoments& mo = piece.moments;
   const auto& contour = piece.contour;
   const cv::Point offset = piece.offset;
   const bool merged = piece.fragments > 1;

@@ -15,6 +15,14 @@
 
 namespace harvest::vision {
 
+// The zeroth and first moments of a binary mask (nonzero = 1), the part of
+// cv::moments the detector uses, as exact integer sums: the same values, a
+// fifth of the work (cv::moments also sums the second and third moments).
+struct MaskMoments {
+  double m00 = 0, m10 = 0, m01 = 0;
+};
+MaskMoments mask_moments(const cv::Mat1b& mask);
+
 // A piece of the mask that may be one fruit: a region, a part of a split
 // region, or fragments merged because they lie on one circle.
 struct Piece {
@@ -24,7 +32,7 @@ struct Piece {
   std::vector<cv::Point2d> edge;   // fruit-edge points, image coordinates
   std::vector<cv::Point2d> outer;  // every outer outline point, image coordinates
   std::size_t outline_points = 0;  // outer outline length of all fragments
-  cv::Moments moments;             // of the mask (binary)
+  MaskMoments moments;             // of the mask
   double area = 0;
   cv::Rect box;  // image coordinates
   int fragments = 1;

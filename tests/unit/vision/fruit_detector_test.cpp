@@ -11,6 +11,7 @@
 #include "opencv_reference.hpp"
 #include "synthetic_scene.hpp"
 #include "vision/depth.hpp"
+#include "vision/region_split.hpp"
 #include "vision/segmentation.hpp"
 
 namespace harvest::vision {
@@ -156,6 +157,9 @@ TEST(RegionLabeler, AgreesWithOpenCvConnectedComponents) {
       ASSERT_EQ(m, ours(y, x)) << x << "," << y;
     }
   for (int l = 1; l < n; ++l) {
+    // In the same order too (raster order of the first pixel): the splitter's
+    // peel relies on it, where it replaced cv::connectedComponentsWithStats.
+    EXPECT_EQ(map[static_cast<std::size_t>(l)], l);
     const Region& r = regions[static_cast<std::size_t>(map[static_cast<std::size_t>(l)] - 1)];
     EXPECT_EQ(r.area, stats.at<int>(l, cv::CC_STAT_AREA));
     EXPECT_EQ(r.x0, stats.at<int>(l, cv::CC_STAT_LEFT));
@@ -163,6 +167,27 @@ TEST(RegionLabeler, AgreesWithOpenCvConnectedComponents) {
     EXPECT_NEAR(r.cx(), centroids.at<double>(l, 0), 1e-9);
     EXPECT_NEAR(r.cy(), centroids.at<double>(l, 1), 1e-9);
   }
+}
+
+TEST(MaskMoments, EqualOpenCvMomentsExactly) {
+  std::mt19937 rng(7);
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(17, 5), cv::Size(320, 240), cv::Size(333, 257)}) {
+    cv::Mat1b mask(size);
+    cv::randu(mask, 0, 2);
+    mask = mask * 200;  // nonzero counts as 1, whatever its value
+    cv::circle(mask, {size.width / 2, size.height / 2}, size.width / 3, 255, -1);
+    // A view into a larger image (rows not contiguous) as well as the whole.
+    cv::Mat1b frame = cv::Mat1b::zeros(size.height + 4, size.width + 6);
+    mask.copyTo(frame(cv::Rect(3, 2, size.width, size.height)));
+    for (const cv::Mat1b& m : {mask, frame(cv::Rect(3, 2, size.width, size.height))}) {
+      const cv::Moments ref = cv::moments(m, true);
+      const MaskMoments ours = mask_moments(m);
+      EXPECT_EQ(ours.m00, ref.m00) << size;
+      EXPECT_EQ(ours.m10, ref.m10) << size;
+      EXPECT_EQ(ours.m01, ref.m01) << size;
+    }
+  }
+  EXPECT_EQ(mask_moments(cv::Mat1b::zeros(4, 4)).m00, 0.0);
 }
 
 TEST(ColorThreshold, SameMaskAndRegionsAsOpenCvPipeline) {
