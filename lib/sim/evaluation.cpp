@@ -87,11 +87,21 @@ std::string number(double v, int decimals = 3) {
   return buf;
 }
 
+void add_state_time(Evaluation& e, const std::string& state, int64_t us) {
+  auto it = std::find_if(e.state_time_s.begin(), e.state_time_s.end(), [&](const auto& p) { return p.first == state; });
+  if (it == e.state_time_s.end()) it = e.state_time_s.insert(it, {state, 0.0});
+  it->second += static_cast<double>(us) * 1e-6;
+}
+
+// States that are not part of a harvest's work (waiting to start, finished).
+bool idle_state(const std::string& s) { return s == "IDLE" || s == "DONE"; }
+
 }  // namespace
 
 void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenario, int run, Evaluation& e) {
   std::vector<sim_truth_t> truths;
   std::optional<harvest_status_t> last_status;
+  int64_t last_status_time = 0;
   std::vector<targets_t> targets;
   // Every controller outcome with the log time it was first reported.
   std::vector<std::pair<int64_t, fruit_outcome_t>> reported;
@@ -101,6 +111,8 @@ void evaluate_run(const std::vector<rt::LogRecord>& log, const Scenario& scenari
       if (auto m = rt::decode<sim_truth_t>(rec.data)) truths.push_back(std::move(*m));
     } else if (rec.channel == channels::kHarvestStatus) {
       if (auto m = rt::decode<harvest_status_t>(rec.data)) {
+        if (last_status) add_state_time(e, last_status->state, rec.timestamp - last_status_time);
+        last_status_time = rec.timestamp;
         for (const auto& o : m->outcomes)
           if (seen.emplace(o.fruit_id, o.outcome, o.cycle_time_s, o.detail).second)
             reported.emplace_back(rec.timestamp, o);
@@ -304,6 +316,11 @@ std::string to_json(const Evaluation& e) {
   j["simulated_time_s"] = json_number(e.sim_duration_s, 1);
   j["picked_any"] = e.picked_any;
   j["time_per_pick_s"] = json_number(e.time_per_pick_s, 2);
+  {
+    Json states = Json::object();
+    for (const auto& [state, t] : e.state_time_s) states[state] = json_number(t, 2);
+    j["state_time_s"] = states;
+  }
   j["fruit"] = Json::array();
   for (const auto& f : e.fruit) {
     Json o;
@@ -398,6 +415,19 @@ std::string to_table(const Evaluation& e) {
                   e.per_run.size(), 100.0 * a.mean_success, 100.0 * a.worst_success, a.worst_run,
                   100.0 * a.best_success, 100.0 * a.std_success, number(a.worst_error_mm, 1).c_str());
     o << line;
+  }
+  double working = 0.0;
+  for (const auto& [state, t] : e.state_time_s)
+    if (!idle_state(state)) working += t;
+  if (working > 0) {
+    o << "controller time by state (all runs, without IDLE and DONE: " << number(working, 1) << " s"
+      << (e.picked_any > 0 ? ", " + number(working / e.picked_any, 2) + " s per fruit picked" : std::string()) << "):\n";
+    for (const auto& [state, t] : e.state_time_s) {
+      if (idle_state(state)) continue;
+      std::snprintf(line, sizeof line, "  %-12s %7.2f s  %5.1f %%%s\n", state.c_str(), t, 100.0 * t / working,
+                    e.picked_any > 0 ? ("  " + number(t / e.picked_any, 2) + " s per pick").c_str() : "");
+      o << line;
+    }
   }
   auto bins = [&](const char* name, const std::vector<DepthBin>& v) {
     if (v.empty()) return;

@@ -69,6 +69,10 @@ struct Evaluation {
   std::vector<FruitResult> fruit;
   std::vector<RunFigures> per_run;  // in run order (finish() fills the figures)
   AcrossRuns across_runs;           // finish(), from per_run
+  // Time the controller spent in each state (HARVEST_STATUS, log time until
+  // the next change; the run's last state until its last status), summed over
+  // the runs, in order of first appearance: where a harvest's time goes.
+  std::vector<std::pair<std::string, double>> state_time_s;
   std::vector<DepthBin> depth_fixed, depth_hand;
   std::vector<std::string> warnings;
   // (true depth, estimate - truth) [m] per target seen, filled by evaluate_run.

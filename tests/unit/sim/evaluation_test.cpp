@@ -137,6 +137,50 @@ TEST(Evaluation, EachRunsFiguresAndTheirSpreadAcrossRuns) {
   EXPECT_NE(table.find("across 3 runs: success mean 50.0 %, worst 0.0 % (run 2)"), std::string::npos) << table;
 }
 
+// Where the time goes: each HARVEST_STATUS state counts until the next
+// status that changes it (log time), summed over runs; IDLE and DONE are left
+// out of the shares.
+TEST(Evaluation, TimeInEachControllerStateOverRuns) {
+  const Scenario scenario = load_scenario("config/scenarios/experiment1.yaml");
+  const Vec3 a(-0.27, 1.02, -0.54);
+  const auto status = [](int64_t t, const std::string& state) {
+    harvest_status_t s{};
+    s.header.utime = t;
+    s.state = state;
+    return rt::LogRecord{t, channels::kHarvestStatus, rt::encode(s)};
+  };
+  Evaluation e;
+  for (int run = 0; run < 2; ++run) {
+    std::vector<rt::LogRecord> log;
+    log.push_back(truth(kT0, {fruit(0, a, sim_fruit_truth_t::ON_TREE, 0)}));
+    log.push_back(status(kT0, "IDLE"));
+    log.push_back(status(kT0 + 500'000, "ORIENT"));
+    log.push_back(status(kT0 + 1'500'000, "ORIENT"));  // the same state again: still ORIENT
+    log.push_back(status(kT0 + 2'500'000, "APPROACH"));
+    log.push_back(status(kT0 + 3'000'000, "GRASP"));
+    log.push_back(status(kT0 + 3'250'000, "ORIENT"));  // a state seen before adds to its time
+    log.push_back(status(kT0 + 4'000'000, "DONE"));
+    log.push_back(status(kT0 + 9'000'000, "DONE"));
+    log.push_back(truth(kT0 + 9'000'000, {fruit(0, a, sim_fruit_truth_t::PICKED, kT0 + 3'200'000)}));
+    evaluate_run(log, scenario, run, e);
+  }
+  finish(e);
+  const std::vector<std::pair<std::string, double>> want{
+      {"IDLE", 1.0}, {"ORIENT", 2 * 2.75}, {"APPROACH", 1.0}, {"GRASP", 0.5}, {"DONE", 10.0}};
+  ASSERT_EQ(e.state_time_s.size(), want.size());
+  for (std::size_t i = 0; i < want.size(); ++i) {
+    EXPECT_EQ(e.state_time_s[i].first, want[i].first);
+    EXPECT_NEAR(e.state_time_s[i].second, want[i].second, 1e-9) << want[i].first;
+  }
+  const auto j = rt::Json::parse(to_json(e));
+  EXPECT_EQ(j["state_time_s"]["ORIENT"], 5.5) << to_json(e);
+  // 7 s of work for 2 picks: ORIENT 5.5 s is 78.6 %, 2.75 s per pick.
+  const std::string table = to_table(e);
+  EXPECT_NE(table.find("without IDLE and DONE: 7.0 s, 3.50 s per fruit picked"), std::string::npos) << table;
+  EXPECT_NE(table.find("ORIENT          5.50 s   78.6 %  2.75 s per pick"), std::string::npos) << table;
+  EXPECT_EQ(table.find("  IDLE "), std::string::npos) << table;
+}
+
 TEST(Evaluation, ALogWithoutGroundTruthIsRefused) {
   const Scenario scenario = load_scenario("config/scenarios/experiment1.yaml");
   Evaluation e;
