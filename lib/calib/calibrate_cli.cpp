@@ -1,29 +1,20 @@
 #include "calib/calibrate_cli.hpp"
 
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <chrono>
-#include <csignal>
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
-#include <thread>
 
 #include "calib/calibration_node.hpp"
+#include "calib/live_run.hpp"
 #include "calib/plan_cli.hpp"
 #include "calib/report.hpp"
 #include "geometry/transform_file.hpp"
 #include "runtime/channels.hpp"
-#include "runtime/live_runner.hpp"
 #include "runtime/replay_runner.hpp"
 
 namespace harvest::calib {
 namespace {
-
-std::atomic<rt::LiveRunner*> g_live{nullptr};
-extern "C" void stop_live(int) {
-  if (auto* r = g_live.load()) r->request_stop(0);
-}
 
 struct Source {
   std::string log, lcm_url, prefix;
@@ -46,30 +37,8 @@ void collect(CalibrationNode& node, const Source& src, std::ostream& err) {
     runner.add(node);
     runner.run();
   } else {
-    rt::LiveOptions lo;
-    lo.lcm_url = src.lcm_url;
-    lo.prefix = src.prefix;
-    rt::LiveRunner runner(lo);
-    runner.add(node);
-    g_live = &runner;
-    auto* old_int = std::signal(SIGINT, stop_live);
-    auto* old_term = std::signal(SIGTERM, stop_live);
-    std::thread timer;
-    std::atomic<bool> done{false};
-    if (src.duration_s > 0)
-      timer = std::thread([&] {
-        const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(src.duration_s);
-        while (!done && std::chrono::steady_clock::now() < end)
-          std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        if (!done) runner.request_stop(0);
-      });
     err << "collecting views live; Ctrl-C when done\n";
-    runner.run();
-    done = true;
-    if (timer.joinable()) timer.join();
-    std::signal(SIGINT, old_int);
-    std::signal(SIGTERM, old_term);
-    g_live = nullptr;
+    run_live(node, src.lcm_url, src.prefix, src.duration_s);
   }
   node.finish();
   err << node.collector().summary() << "\n";

@@ -2,54 +2,17 @@
 
 #include <fmt/format.h>
 
-#include <atomic>
-#include <chrono>
-#include <csignal>
 #include <iostream>
-#include <thread>
 
 #include "calib/calibration_node.hpp"
+#include "calib/live_run.hpp"
 #include "calib/solvers.hpp"
 #include "geometry/transform_file.hpp"
 #include "runtime/channels.hpp"
-#include "runtime/live_runner.hpp"
 #include "security/authority.hpp"
 
 namespace harvest::calib {
 namespace {
-
-std::atomic<rt::LiveRunner*> g_runner{nullptr};
-extern "C" void stop_runner(int) {
-  if (auto* r = g_runner.load()) r->request_stop(0);
-}
-
-// Runs `node` live until it stops the runner, Ctrl-C, or `timeout_s` (0: none).
-int run_live(rt::Node& node, const PlanRequest& r, double timeout_s) {
-  rt::LiveOptions lo;
-  lo.lcm_url = r.lcm_url;
-  lo.prefix = r.prefix;
-  rt::LiveRunner runner(lo);
-  runner.add(node);
-  g_runner = &runner;
-  auto* old_int = std::signal(SIGINT, stop_runner);
-  auto* old_term = std::signal(SIGTERM, stop_runner);
-  std::atomic<bool> done{false};
-  std::thread timer;
-  if (timeout_s > 0)
-    timer = std::thread([&] {
-      const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-      while (!done && std::chrono::steady_clock::now() < end)
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (!done) runner.request_stop(0);
-    });
-  const int rc = runner.run();
-  done = true;
-  if (timer.joinable()) timer.join();
-  std::signal(SIGINT, old_int);
-  std::signal(SIGTERM, old_term);
-  g_runner = nullptr;
-  return rc;
-}
 
 std::string describe(const Eigen::Isometry3d& t) {
   const Eigen::Vector3d p = 1000.0 * t.translation();
@@ -78,11 +41,11 @@ int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
     cfg.collect.max_views = 1;
     CalibrationNode locator(cfg);
     locator.on_view = [&](const BoardView&, Verdict v) {
-      if (v == Verdict::kAccepted) g_runner.load()->request_stop(0);
+      if (v == Verdict::kAccepted) stop_live();
     };
     err << "looking for the board on " << cfg.image_channel << " with the arm at rest (up to " << r.locate_timeout_s
         << " s)\n";
-    run_live(locator, r, r.locate_timeout_s);
+    run_live(locator, r.lcm_url, r.prefix, r.locate_timeout_s);
     locator.finish();
     if (locator.collector().views().empty())
       throw CalibrationError(fmt::format(
@@ -127,7 +90,7 @@ int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
                "arm\n",
                poses.size(), run.max_linear_speed, run.max_angular_speed, run.dwell_s)
         << std::flush;
-    run_live(runner, r, 0);
+    run_live(runner, r.lcm_url, r.prefix, 0);
     if (runner.outcome() != PlanRunner::Outcome::kDone) {
       err << "harvest-calibrate: plan stopped: " << runner.why() << "\n";
       return 1;

@@ -133,36 +133,31 @@ std::optional<std::string> PlanRunner::refusal(const robot_state_t& s) const {
   return std::nullopt;
 }
 
-void PlanRunner::send_goal() {
+void PlanRunner::send(int8_t type) {
   robot_command_t c{};
   c.header.utime = now();
   c.header.source_seq = -1;
   c.header.frame_id = "base";
-  c.type = robot_command_t::TYPE_POSE_GOAL;
+  c.type = type;
   c.validity_us = rt::from_seconds(config_.validity_s);
-  c.pose_goal = geometry::to_pose(config_.poses[index_]);
+  c.pose_goal = type == robot_command_t::TYPE_POSE_GOAL ? geometry::to_pose(config_.poses[index_])
+                                                        : geometry::to_pose(Eigen::Isometry3d::Identity());
   c.num_joints = 0;
   c.max_linear_speed = config_.max_linear_speed;
   c.max_angular_speed = config_.max_angular_speed;
   c.goal_id = goal_id_;
   publish(channels::kRobotCommand, c, [this](robot_command_t& m) { signer_.sign(m); });
-  if (goal_first_seq_ < 0) goal_first_seq_ = c.header.seq;
-  last_sent_ = now();
+  if (type == robot_command_t::TYPE_POSE_GOAL) {
+    if (goal_first_seq_ < 0) goal_first_seq_ = c.header.seq;
+    last_sent_ = now();
+  } else {
+    stopped_sent_ = true;
+  }
 }
 
-void PlanRunner::send_stop() {
-  robot_command_t c{};
-  c.header.utime = now();
-  c.header.source_seq = -1;
-  c.header.frame_id = "base";
-  c.type = robot_command_t::TYPE_STOP;
-  c.validity_us = rt::from_seconds(config_.validity_s);
-  c.pose_goal.orientation[0] = 1.0;
-  c.num_joints = 0;
-  c.goal_id = goal_id_;
-  publish(channels::kRobotCommand, c, [this](robot_command_t& m) { signer_.sign(m); });
-  stopped_sent_ = true;
-}
+void PlanRunner::send_goal() { send(robot_command_t::TYPE_POSE_GOAL); }
+
+void PlanRunner::send_stop() { send(robot_command_t::TYPE_STOP); }
 
 void PlanRunner::abort(const std::string& why) {
   send_stop();

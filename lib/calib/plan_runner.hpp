@@ -56,6 +56,7 @@ class PlanRunner final : public rt::Node {
 
  private:
   void tick();
+  void send(int8_t type);  // a signed command: the current pose goal, or a stop
   void send_goal();
   void send_stop();
   void abort(const std::string& why);

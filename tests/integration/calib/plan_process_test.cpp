@@ -24,12 +24,6 @@ using namespace std::chrono_literals;
 
 namespace {
 
-std::string unique_can_bus() {
-  const int pid = static_cast<int>(::getpid());
-  return "udp_multicast:239.74.165." + std::to_string(10 + pid % 200) + ":" + std::to_string(53000 + (pid * 7) % 4000) +
-         "?ttl=0";
-}
-
 std::string read(const fs::path& p) {
   std::ifstream f(p);
   std::ostringstream s;
@@ -43,7 +37,7 @@ TEST(CalibrationPlan, HandEyeFromAPlannedRunThroughTheRobotLink) {
   const int port = harvest::sim::free_port(false);
   ht::ChildProcess set(
       {ht::bin("harvest-launch"), ht::source_path("config/sets/sim-calibration.yaml"), "--lcm-url", url, "--set",
-       "site.can_bus=" + unique_can_bus(), "--set", "site.board_port=" + std::to_string(port), "--set",
+       "site.can_bus=" + ht::unique_can_bus(), "--set", "site.board_port=" + std::to_string(port), "--set",
        "recording.enabled=true", "--set", "recording.folder=" + dir.path().string(), "--set",
        "recording.channels=CAMERA_HAND|ROBOT_STATE|ROBOT_COMMAND"},
       dir / "launch.log");
