@@ -1,28 +1,20 @@
 #include "calib/calibrate_cli.hpp"
 
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <chrono>
-#include <csignal>
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
-#include <thread>
 
 #include "calib/calibration_node.hpp"
+#include "calib/live_run.hpp"
+#include "calib/plan_cli.hpp"
 #include "calib/report.hpp"
 #include "geometry/transform_file.hpp"
 #include "runtime/channels.hpp"
-#include "runtime/live_runner.hpp"
 #include "runtime/replay_runner.hpp"
 
 namespace harvest::calib {
 namespace {
-
-std::atomic<rt::LiveRunner*> g_live{nullptr};
-extern "C" void stop_live(int) {
-  if (auto* r = g_live.load()) r->request_stop(0);
-}
 
 struct Source {
   std::string log, lcm_url, prefix;
@@ -45,30 +37,8 @@ void collect(CalibrationNode& node, const Source& src, std::ostream& err) {
     runner.add(node);
     runner.run();
   } else {
-    rt::LiveOptions lo;
-    lo.lcm_url = src.lcm_url;
-    lo.prefix = src.prefix;
-    rt::LiveRunner runner(lo);
-    runner.add(node);
-    g_live = &runner;
-    auto* old_int = std::signal(SIGINT, stop_live);
-    auto* old_term = std::signal(SIGTERM, stop_live);
-    std::thread timer;
-    std::atomic<bool> done{false};
-    if (src.duration_s > 0)
-      timer = std::thread([&] {
-        const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(src.duration_s);
-        while (!done && std::chrono::steady_clock::now() < end)
-          std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        if (!done) runner.request_stop(0);
-      });
     err << "collecting views live; Ctrl-C when done\n";
-    runner.run();
-    done = true;
-    if (timer.joinable()) timer.join();
-    std::signal(SIGINT, old_int);
-    std::signal(SIGTERM, old_term);
-    g_live = nullptr;
+    run_live(node, src.lcm_url, src.prefix, src.duration_s);
   }
   node.finish();
   err << node.collector().summary() << "\n";
@@ -112,6 +82,14 @@ int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::os
   PoseOptions popt;
   int min_views = 0, max_views = 0;
 
+  auto board_options = [&](CLI::App* c) {
+    c->add_option("--squares", squares, "board squares across and down")->expected(2)->capture_default_str();
+    c->add_option("--square-mm", square_mm, "board square side [mm]")->capture_default_str();
+    c->add_option("--marker-mm", marker_mm, "board marker side [mm]")->capture_default_str();
+    c->add_option("--dictionary", board.dictionary, "ArUco dictionary of the board")
+        ->check(CLI::IsMember(board_dictionaries()))
+        ->capture_default_str();
+  };
   auto common = [&](CLI::App* c) {
     auto* g = c->add_option_group("source", "where the frames come from");
     g->add_option("--log", src.log, "a recorded LCM log (replayed in process, as fast as the CPU allows)");
@@ -119,12 +97,7 @@ int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::os
     g->require_option(1);
     c->add_option("--prefix", src.prefix, "channel prefix of the recorded graph");
     c->add_option("--channel", channel, "image channel (default: the procedure's camera)");
-    c->add_option("--squares", squares, "board squares across and down")->expected(2)->capture_default_str();
-    c->add_option("--square-mm", square_mm, "board square side [mm]")->capture_default_str();
-    c->add_option("--marker-mm", marker_mm, "board marker side [mm]")->capture_default_str();
-    c->add_option("--dictionary", board.dictionary, "ArUco dictionary of the board")
-        ->check(CLI::IsMember(board_dictionaries()))
-        ->capture_default_str();
+    board_options(c);
     c->add_option("-o,--output", output, "the calibration file to write (default: standard output)");
     c->add_option("--report", report, "a PNG report: error vectors over the image, per-view residuals");
     c->add_option("--date", date, "the date in the file's comment (default: the last frame's time, UTC)");
@@ -147,6 +120,47 @@ int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::os
   ex->add_option("--robot-state-channel", state_channel, "arm state channel")->capture_default_str();
   common(ex);
 
+  PlanRequest plan;
+  plan.hand_eye_file = "config/cameras/hand_eye.yaml";
+  plan.extrinsic_file = "config/cameras/fixed_extrinsic.yaml";
+  double plan_distance_mm = 0, plan_tilt_deg = 0;
+  auto* pl = app.add_subcommand(
+      "plan", "arm poses about the board in view for hand-eye or extrinsics; with --run, moves the arm through them");
+  pl->add_option("procedure", plan.procedure, "hand-eye or extrinsics")
+      ->required()
+      ->check(CLI::IsMember({"hand-eye", "extrinsics"}));
+  pl->add_option("--lcm-url", plan.lcm_url, "LCM URL of the robot's network (default: $LCM_DEFAULT_URL)");
+  pl->add_option("--prefix", plan.prefix, "channel prefix of the robot's graph");
+  pl->add_option("--channel", plan.image_channel, "image channel (default: the procedure's camera)");
+  pl->add_option("--intrinsics", plan.intrinsics_file, "the procedure's camera calibration")->required();
+  pl->add_option("--hand-eye", plan.hand_eye_file, "hand-eye: the current camera-in-hand estimate")
+      ->capture_default_str();
+  pl->add_option("--extrinsic", plan.extrinsic_file, "extrinsics: the current fixed-camera estimate")
+      ->capture_default_str();
+  pl->add_option("--poses", plan.hand_eye.poses, "hand-eye: poses on the ring about the board")
+      ->check(CLI::Range(6, 60))
+      ->capture_default_str();
+  pl->add_option("--distance-mm", plan_distance_mm,
+                 "camera to board at the nearest pose (default 450 hand-eye, 600 extrinsics)")
+      ->check(CLI::Range(200.0, 2000.0));
+  pl->add_option("--tilt-deg", plan_tilt_deg, "board tilt off square-on (default 25)")->check(CLI::Range(5.0, 45.0));
+  pl->add_option("--speed", plan.run.max_linear_speed, "tool speed [m/s] (the robot link's limits still apply)")
+      ->check(CLI::Range(0.01, 0.5))
+      ->capture_default_str();
+  pl->add_option("--dwell", plan.run.dwell_s, "rest at each pose [s]")
+      ->check(CLI::Range(0.3, 30.0))
+      ->capture_default_str();
+  pl->add_option("--pose-timeout", plan.run.pose_timeout_s, "skip a pose not reached in this long [s]")
+      ->check(CLI::Range(2.0, 600.0))
+      ->capture_default_str();
+  pl->add_option("--locate-timeout", plan.locate_timeout_s, "wait this long for the board in view [s]")
+      ->capture_default_str();
+  pl->add_option("--key", plan.key, "command key: sim or a key file (default: $HARVEST_COMMAND_KEY, else sim)");
+  pl->add_option("--sender", plan.sender, "sender id the robot link obeys (its authority.controller)")
+      ->capture_default_str();
+  pl->add_flag("--run", plan.move, "move the arm through the poses (without: print the plan only)");
+  board_options(pl);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -154,6 +168,16 @@ int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::os
     return rc == 0 ? 0 : 2;
   }
 
+  if (pl->parsed()) {
+    board.squares_x = squares[0];
+    board.squares_y = squares[1];
+    board.square_m = square_mm / 1000;
+    board.marker_m = marker_mm / 1000;
+    plan.board = board;
+    if (plan_distance_mm > 0) plan.hand_eye.distance_m = plan.extrinsics.distance_m = plan_distance_mm / 1000;
+    if (plan_tilt_deg > 0) plan.hand_eye.tilt_deg = plan.extrinsics.tilt_deg = plan_tilt_deg;
+    return run_plan(plan, out, err);
+  }
   try {
     board.squares_x = squares[0];
     board.squares_y = squares[1];

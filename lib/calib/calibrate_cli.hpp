@@ -2,6 +2,7 @@
 //   harvest-calibrate intrinsics fixed|hand   (--log FILE | --lcm-url URL) -o FILE [--report PNG]
 //   harvest-calibrate hand-eye   --intrinsics FILE (--log FILE | --lcm-url URL) -o FILE [--report PNG]
 //   harvest-calibrate extrinsics --intrinsics FILE (--log FILE | --lcm-url URL) -o FILE [--report PNG]
+//   harvest-calibrate plan hand-eye|extrinsics --intrinsics FILE [--run]   (calib/plan_cli.hpp)
 // Views come from the same node over a log (ReplayRunner) or live (LiveRunner).
 // Exit codes: 0 written, 1 the views cannot give a trustworthy answer (the
 // reason is printed) or a file cannot be read or written, 2 bad command line.

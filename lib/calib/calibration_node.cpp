@@ -33,7 +33,12 @@ void CalibrationNode::on_image(const image_t& msg) {
     count("bad_frames");
     return;
   }
-  Frame f{msg.header.utime, {}};
+  // Views are kept in sensor pixels, the pixels every calibration file and
+  // process uses (a camera may publish its frames binned, as the simulator's do).
+  Frame f{msg.header.utime,
+          {},
+          camera::image_roi(msg),
+          msg.sensor_width > 0 ? cv::Size(msg.sensor_width, msg.sensor_height) : cv::Size(msg.width, msg.height)};
   cv::cvtColor(img.bgr, f.gray, cv::COLOR_BGR2GRAY);
   last_frame_utime_ = f.utime;
   if (config_.robot_state_channel.empty()) {
@@ -97,6 +102,14 @@ void CalibrationNode::decide(Frame frame) {
     }
   }
   BoardView view = detect_board(frame.gray, board_, config_.try_mirrored);
+  if (frame.roi.width != frame.gray.cols || frame.roi.height != frame.gray.rows || frame.roi.x != 0 ||
+      frame.roi.y != 0) {
+    const double sx = frame.roi.width / frame.gray.cols, sy = frame.roi.height / frame.gray.rows;
+    for (cv::Point2f& c : view.corners)
+      c = cv::Point2f(static_cast<float>((c.x + 0.5) * sx + frame.roi.x - 0.5),
+                      static_cast<float>((c.y + 0.5) * sy + frame.roi.y - 0.5));
+  }
+  view.image_size = frame.sensor;
   view.utime = frame.utime;
   view.tool_pose = pose;
   offer(std::move(view));

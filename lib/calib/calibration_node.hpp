@@ -51,6 +51,8 @@ class CalibrationNode : public rt::Node {
   struct Frame {
     int64_t utime;
     cv::Mat gray;
+    cv::Rect2d roi;   // the sensor region the frame shows (sensor pixels)
+    cv::Size sensor;  // the whole sensor
   };
   void on_image(const image_t& msg);
   void on_state(const robot_state_t& msg);

@@ -56,6 +56,18 @@ std::string unique_lcm_url() {
   return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
 }
 
+std::string unique_can_bus() {
+  static std::atomic<int> counter{0};
+  const int pid = static_cast<int>(getpid());
+  int n = 0, port = 0;
+  for (int tries = 0; tries < 100; ++tries) {
+    n = counter++;
+    port = 50000 + (pid * 7 + n * 13) % 10000;
+    if (udp_port_free(port)) break;
+  }
+  return "udp_multicast:239.74.166." + std::to_string(10 + (pid + n) % 200) + ":" + std::to_string(port) + "?ttl=0";
+}
+
 TempDir::TempDir() {
   std::string templ = (std::filesystem::temp_directory_path() / "harvest-test-XXXXXX").string();
   if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");

@@ -13,6 +13,9 @@ namespace harvest::testing {
 // A multicast URL no other test uses at the same time (ctest runs tests in
 // parallel): a port derived from the pid and a counter, TTL 0 (this host only).
 std::string unique_lcm_url();
+// A virtual CAN bus (udp_multicast, docs/can.md) no other test uses at the
+// same time: group and port from the pid and a counter, TTL 0.
+std::string unique_can_bus();
 
 // A fresh empty folder under the system temp dir, removed by the destructor.
 class TempDir {

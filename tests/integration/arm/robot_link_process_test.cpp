@@ -36,16 +36,6 @@ namespace {
 constexpr int32_t kFlagDriveFault = 1 << 0, kFlagEmcy = 1 << 1, kFlagHeartbeatLost = 1 << 2, kFlagPdoLost = 1 << 3,
                   kFlagEstop = 1 << 4, kFlagCommandStale = 1 << 5, kFlagRefused = 1 << 7, kFlagForeign = 1 << 10;
 
-// A virtual CAN bus of its own for every test (ctest runs tests in parallel):
-// group and port from the pid, ports above the ephemeral range.
-std::string unique_can_bus() {
-  static int counter = 0;
-  const int pid = static_cast<int>(::getpid());
-  const int n = counter++;
-  return "udp_multicast:239.74.163." + std::to_string(10 + (pid + n) % 200) + ":" +
-         std::to_string(61000 + (pid * 7 + n * 13) % 4000) + "?ttl=0";
-}
-
 Eigen::Vector3d tool_position(const robot_state_t& s) {
   return {s.tool_pose.position[0], s.tool_pose.position[1], s.tool_pose.position[2]};
 }
@@ -54,7 +44,7 @@ class ArmProcesses : public ::testing::Test {
  protected:
   void SetUp() override {
     url_ = ht::unique_lcm_url();
-    bus_ = unique_can_bus();
+    bus_ = ht::unique_can_bus();
     lcm_ = std::make_unique<lcm::LCM>(url_);
     ASSERT_TRUE(lcm_->good());
     lcm_->subscribe(ch::kRobotState, &ArmProcesses::on_state, this);

@@ -41,12 +41,6 @@ using namespace std::chrono_literals;
 
 namespace {
 
-std::string unique_can_bus() {
-  const int pid = static_cast<int>(::getpid());
-  return "udp_multicast:239.74.164." + std::to_string(10 + pid % 200) + ":" + std::to_string(57000 + (pid * 7) % 4000) +
-         "?ttl=0";
-}
-
 Eigen::Vector3d position(const harvest::pose_t& p) { return {p.position[0], p.position[1], p.position[2]}; }
 
 // One fruit 200 mm straight ahead of the start pose, no canopy: the IR sees
@@ -76,7 +70,7 @@ class SimDevices : public ::testing::Test {
 
   void SetUp() override {
     url_ = ht::unique_lcm_url();
-    bus_ = unique_can_bus();
+    bus_ = ht::unique_can_bus();
     port_ = harvest::sim::free_port(false);
     ASSERT_GT(port_, 0);
     { std::ofstream(tmp_ / "scenario.yaml") << scenario(); }
@@ -407,7 +401,7 @@ TEST(SimPorts, ABusOrBoardPortAnotherRunHoldsIsRefusedClearly) {
   ASSERT_EQ(::listen(tcp, 1), 0);
   ASSERT_EQ(::getsockname(tcp, reinterpret_cast<sockaddr*>(&a), &len), 0);
   const int board_port = ntohs(a.sin_port);
-  const auto [board_code, board_out] = start_sim(unique_can_bus(), board_port, "board.log");
+  const auto [board_code, board_out] = start_sim(ht::unique_can_bus(), board_port, "board.log");
   EXPECT_NE(board_code, 0) << board_out;
   EXPECT_NE(board_out.find("board server 127.0.0.1:" + std::to_string(board_port) +
                            ": Address already in use: another simulator (or ser2net) holds the port"),

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/pose_plan.hpp"
 #include "calib/views.hpp"
 #include "sim/board.hpp"
 #include "sim/renderer.hpp"
@@ -46,10 +47,7 @@ class CalibScenes {
   // The board centred `offset` (camera x, y at `depth`), turned by rx, ry, rz
   // about its centre, in a proper camera frame.
   Placement board_in_camera(double depth, double ox, double oy, double rx, double ry, double rz) const {
-    const BoardSpec& b = board().spec;
-    const Vec3 half(b.squares_x * b.square_m / 2, b.squares_y * b.square_m / 2, 0.0);
-    const Mat3 r = rot(rx, ry, rz);
-    return {r, Vec3(ox, oy, depth) - r * half};
+    return placement(board_facing_camera(board().spec, depth, ox, oy, rx, ry, rz));
   }
 
   // A grey frame of `camera` at `camera_pose` (base frame) with the board at `board_pose`.
@@ -94,23 +92,17 @@ class CalibScenes {
     return out;
   }
 
-  // Tool poses about the board on its stand for hand-eye: the hand camera
-  // (tool * true hand-eye) looks at the board from around its normal at
-  // 0.45-0.6 m, rolled and tilted.
+  // Tool poses about the board on its stand for hand-eye (harvest-calibrate
+  // plan's, with the true hand-eye); `one_axis`: all rolls about the optical
+  // axis, a degenerate dataset.
   std::vector<Eigen::Isometry3d> hand_eye_tool_poses(bool one_axis = false) const {
     const Eigen::Isometry3d board_pose = iso(board().pose);
     const Eigen::Isometry3d x = iso(sc_.arm.hand_eye);
+    if (!one_axis) return plan_hand_eye(board_pose, board().spec, x);
     std::vector<Eigen::Isometry3d> tools;
-    for (int k = 0; k < 12; ++k) {
-      const double a = k * 2 * M_PI / 12;
-      // Camera in the board frame: on the printed side (-z), looking at the centre.
-      const Placement c = one_axis ? board_in_camera(0.5, 0.0, 0.0, 0.0, 0.0, 30.0 * k - 150.0)
-                                   : board_in_camera(0.45 + 0.015 * (k % 5), 0.03 * std::cos(a), 0.03 * std::sin(a),
-                                                     25.0 * std::sin(a), 25.0 * std::cos(a), 15.0 * std::sin(2 * a));
-      // c is the board in the camera; the camera in the base is board_pose * c^-1.
-      const Eigen::Isometry3d camera = board_pose * iso(c).inverse();
-      tools.push_back(camera * x.inverse());
-    }
+    for (int k = 0; k < 12; ++k)
+      tools.push_back(board_pose * iso(board_in_camera(0.5, 0.0, 0.0, 0.0, 0.0, 30.0 * k - 150.0)).inverse() *
+                      x.inverse());
     return tools;
   }
 
@@ -130,21 +122,9 @@ class CalibScenes {
   }
 
   // Tool poses that show the carried board to the fixed camera across its
-  // image, tilted about different axes, 0.55-0.75 m away.
+  // image (harvest-calibrate plan's, with the true extrinsic).
   std::vector<Eigen::Isometry3d> extrinsics_tool_poses() const {
-    // The fixed camera's frame is improper: boards are placed in its mirror twin (proper).
-    Placement twin = sc_.fixed_camera_truth;
-    twin.rotation = twin.rotation * Vec3(-1, 1, 1).asDiagonal();
-    std::vector<Eigen::Isometry3d> tools;
-    int k = 0;
-    for (const double oy : {-0.08, 0.0, 0.08})
-      for (const double ox : {-0.1, 0.0, 0.1}) {
-        const Placement in_cam = board_in_camera(0.6 + 0.05 * (k % 3), ox, oy, k % 2 ? 25.0 : -20.0,
-                                                 k % 3 == 0 ? 25.0 : -20.0, 10.0 * (k % 4) - 15.0);
-        tools.push_back(iso(sim::compose(twin, in_cam)) * board_in_tool().inverse());
-        ++k;
-      }
-    return tools;
+    return plan_extrinsics(iso(sc_.fixed_camera_truth), board().spec, board_in_tool());
   }
 
   BoardView fixed_view(const Eigen::Isometry3d& tool, uint64_t seed) const {
