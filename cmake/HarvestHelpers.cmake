@@ -66,8 +66,9 @@ function(harvest_test name)
   add_executable(${name} ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main harvest_warnings)
-  target_compile_definitions(${name} PRIVATE
-    HARVEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}" HARVEST_BIN_DIR="${HARVEST_BIN_DIR}")
+  # No build paths compiled into test objects (they would differ per checkout
+  # and defeat ccache across worktrees): tests run from the source tree
+  # (WORKING_DIRECTORY) and find executables through harvest_test_support.
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
     DISCOVERY_MODE PRE_TEST

@@ -160,6 +160,7 @@ std::string ChildProcess::output() const {
 }
 
 std::string bin(const std::string& name) { return std::string(HARVEST_BIN_DIR) + "/" + name; }
+std::string bin_dir() { return HARVEST_BIN_DIR; }
 std::string test_bin(const std::string& name) { return std::string(HARVEST_TEST_BIN_DIR) + "/" + name; }
 std::string source_path(const std::string& relative) { return std::string(HARVEST_SOURCE_DIR) + "/" + relative; }
 

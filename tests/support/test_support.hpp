@@ -58,6 +58,8 @@ class ChildProcess {
 
 // Path of a built executable in build/bin.
 std::string bin(const std::string& name);
+// The folder of the harvest-* executables (build/bin).
+std::string bin_dir();
 // Path of a test-only executable in build/tests.
 std::string test_bin(const std::string& name);
 // Path inside the source tree.

@@ -25,7 +25,7 @@ namespace {
 using namespace harvest;
 
 const kinematics::ArmModel& model() {
-  static const kinematics::ArmModel m = kinematics::ArmModel::load(HARVEST_SOURCE_DIR "/config/arm/k1207i.yaml");
+  static const kinematics::ArmModel m = kinematics::ArmModel::load("config/arm/k1207i.yaml");
   return m;
 }
 
@@ -181,7 +181,7 @@ BENCHMARK(BM_CartesianTrajectoryPoseAndTwist);
 
 const arm::RobotLinkConfig& link_config() {
   static const arm::RobotLinkConfig c = [] {
-    auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+    auto doc = config::Document::load_file("config/arm/robot_link.yaml");
     return arm::RobotLinkConfig::from_config(doc.root());
   }();
   return c;

@@ -114,7 +114,7 @@ TEST(MalformedAttack, EveryProcessOfTheFieldSetSurvivesCountsAndTheArmStaysStill
 
   demo::SetRewrite rw;
   rw.set_file = ht::source_path("config/sets/sim.yaml");
-  rw.bin_dir = HARVEST_BIN_DIR;
+  rw.bin_dir = ht::bin_dir();
   rw.extra_args["sim"] = {"--set", "devices.bus=" + bus, "--set", "devices.board.port=" + port};
   // A stall of the link on the loaded test machine must not trip the drives' own deadlines.
   rw.extra_args["robot-link"] = {"--set", "bus=" + bus,

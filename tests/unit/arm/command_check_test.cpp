@@ -16,7 +16,7 @@ using harvest::robot_command_t;
 
 const RobotLinkConfig& shipped() {
   static const RobotLinkConfig c = [] {
-    auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+    auto doc = config::Document::load_file("config/arm/robot_link.yaml");
     return RobotLinkConfig::from_config(doc.root());
   }();
   return c;

@@ -18,7 +18,7 @@ namespace harvest::arm {
 namespace {
 
 RobotLinkConfig shipped() {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
   return RobotLinkConfig::from_config(doc.root());
 }
 

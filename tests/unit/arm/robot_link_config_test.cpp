@@ -25,13 +25,13 @@ std::string error_of(const std::function<void()>& load) {
 }
 
 config::Document robot_link_file(const std::string& overrides) {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
   if (!overrides.empty()) doc.apply_override(overrides);
   return doc;
 }
 
 TEST(RobotLinkConfig, ShippedFileLoads) {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
   const auto c = RobotLinkConfig::from_config(doc.root());
   doc.check_unused();
   EXPECT_EQ(can::parse_bus_spec(c.bus).udp.hop_limit, 0);
@@ -54,7 +54,7 @@ TEST(RobotLinkConfig, UnknownBusTransportIsRefused) {
     EXPECT_NE(e.find("bus"), std::string::npos) << bus << ": " << e;
     EXPECT_NE(e.find(bus), std::string::npos) << "names the string: " << e;
   }
-  auto sim = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/sim_drives.yaml");
+  auto sim = config::Document::load_file("config/arm/sim_drives.yaml");
   sim.apply_override("bus=socket_can:can0");
   const std::string e = error_of([&] { simdrive::SimDrivesConfig::from_config(sim.root()); });
   EXPECT_NE(e.find("unknown transport 'socket_can'"), std::string::npos) << e;
@@ -81,7 +81,7 @@ TEST(ShippedConfig, EveryVirtualCanBusIsThisHostOnly) {
       for (const auto& c : n) visit(c, f);
     }
   };
-  for (const auto& e : std::filesystem::recursive_directory_iterator(HARVEST_SOURCE_DIR "/config"))
+  for (const auto& e : std::filesystem::recursive_directory_iterator("config"))
     if (e.path().extension() == ".yaml") visit(YAML::LoadFile(e.path().string()), e.path().string());
   EXPECT_GE(found, 2) << "robot_link.yaml and sim_drives.yaml name a bus";
 }

@@ -56,7 +56,7 @@ class BusRef final : public can::CanBus {
 };
 
 RobotLinkConfig default_config() {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
   RobotLinkConfig c = RobotLinkConfig::from_config(doc.root());
   doc.check_unused();
   return c;
@@ -378,7 +378,7 @@ TEST(RobotLinkNode, TwistMovesTheToolAtTheCommandedVelocity) {
 
 TEST(RobotLinkNode, SixAxisArmFollowsATwistToo) {
   RobotLinkConfig c = default_config();
-  c.model = kinematics::ArmModel::load(HARVEST_SOURCE_DIR "/config/arm/six_axis.yaml");
+  c.model = kinematics::ArmModel::load("config/arm/six_axis.yaml");
   c.can.drives.resize(6);
   // Its home is away from singularities (smallest singular value of J well above the damping threshold).
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kinematics::tool_jacobian(c.model, c.model.home));

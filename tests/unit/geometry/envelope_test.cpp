@@ -23,7 +23,7 @@ std::string error_of(const std::string& text) {
 }
 
 TEST(Envelope, ShippedFileLoads) {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/envelope.yaml");
+  auto doc = config::Document::load_file("config/arm/envelope.yaml");
   const Envelope e = Envelope::from_yaml(doc.root());
   doc.check_unused();
   EXPECT_EQ(e.min, Eigen::Vector3d(-0.9, 0.3, -1.1));

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "test_support.hpp"
+
 namespace sec = harvest::security;
 namespace fs = std::filesystem;
 
@@ -89,7 +91,7 @@ TEST_F(KeyFile, MalformedRefused) {
 }
 
 TEST_F(KeyFile, KeygenTool) {
-  const std::string bin = std::string(HARVEST_BIN_DIR) + "/harvest-keygen ";
+  const std::string bin = harvest::testing::bin("harvest-keygen") + " ";
   ASSERT_EQ(std::system((bin + path("robot.key") + " >/dev/null").c_str()), 0);
   EXPECT_EQ(sec::load_key(path("robot.key")).kind, sec::KeyKind::robot);
   ASSERT_EQ(std::system((bin + path("sim.key") + " --sim >/dev/null").c_str()), 0);

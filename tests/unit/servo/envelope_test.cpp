@@ -13,14 +13,14 @@ namespace harvest {
 namespace {
 
 servo::ServoConfig controller(const std::string& override_a = "", const std::string& override_b = "") {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/servo/controller.yaml");
+  auto doc = config::Document::load_file("config/servo/controller.yaml");
   if (!override_a.empty()) doc.apply_override(override_a);
   if (!override_b.empty()) doc.apply_override(override_b);
   return servo::ServoConfig::from_yaml(doc.root());
 }
 
 arm::RobotLinkConfig link_config(const std::string& override_a = "") {
-  auto doc = config::Document::load_file(HARVEST_SOURCE_DIR "/config/arm/robot_link.yaml");
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
   if (!override_a.empty()) doc.apply_override(override_a);
   return arm::RobotLinkConfig::from_config(doc.root());
 }
