@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "logtools/reflect.hpp"
+#include "runtime/json.hpp"
 
 namespace harvest::logtools {
 
@@ -34,8 +35,138 @@ struct Stamp {
 
 }  // namespace
 
-LatencyReport latency(const std::vector<rt::LogRecord>& log) {
+namespace {
+
+// Where each root frame's trace leads: the stages from its sensing to the first command that used it.
+void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& input, LatencyReport& report) {
+  const std::string& end = report.command_channel;
+  // Commands traced to an input, in publication order, and the channel they name.
+  std::vector<int> commands;
+  for (int i = 0; i < static_cast<int>(stamps.size()); ++i)
+    if (stamps[i].channel == end && input[i] >= 0) commands.push_back(i);
+  if (commands.empty()) return;
+  std::stable_sort(commands.begin(), commands.end(),
+                   [&](int a, int b) { return stamps[a].publish < stamps[b].publish; });
+  std::map<std::string, int64_t> named_count;
+  for (int c : commands) ++named_count[stamps[input[c]].channel];
+  const std::string named = std::max_element(named_count.begin(), named_count.end(), [](const auto& a, const auto& b) {
+                              return a.second < b.second;
+                            })->first;
+  // The first command computed with `x` (a message on the named channel) in its node's state.
+  auto first_command = [&](const Stamp& x) -> int {
+    for (int c : commands)
+      if (stamps[input[c]].channel == named && stamps[c].source_seq >= x.seq && stamps[c].publish >= x.publish)
+        return c;
+    return -1;
+  };
+  std::vector<std::vector<int>> children(stamps.size());
+  for (int i = 0; i < static_cast<int>(stamps.size()); ++i)
+    if (input[i] >= 0) children[input[i]].push_back(i);
+
+  struct Frame {
+    int root, reached;  // the deepest message of its trace towards the command
+    int command;        // -1: none used it
+  };
+  std::map<std::string, std::vector<Frame>> frames;  // by root channel
+  for (int r = 0; r < static_cast<int>(stamps.size()); ++r) {
+    if (stamps[r].source_seq >= 0 || input[r] >= 0) continue;
+    // Down the trace (breadth first), to its first message on the named channel.
+    std::vector<int> level{r};
+    int reached = r, hit = -1;
+    while (!level.empty() && hit < 0) {
+      std::vector<int> next;
+      for (int i : level)
+        for (int ch : children[i]) {
+          if (stamps[ch].channel == end) continue;
+          if (stamps[ch].channel == named && (hit < 0 || stamps[ch].seq < stamps[hit].seq)) hit = ch;
+          next.push_back(ch);
+        }
+      if (!next.empty()) reached = next.front();
+      level = std::move(next);
+    }
+    if (hit >= 0) reached = hit;
+    frames[stamps[r].channel].push_back({r, reached, hit >= 0 ? first_command(stamps[hit]) : -1});
+  }
+
+  for (auto& [root_channel, list] : frames) {
+    // Only channels whose frames reach a command; the window is from the first to the last frame one used.
+    int64_t first = INT64_MAX, last = INT64_MIN;
+    for (const Frame& f : list)
+      if (f.command >= 0) {
+        first = std::min(first, stamps[f.root].utime);
+        last = std::max(last, stamps[f.root].utime);
+      }
+    if (first == INT64_MAX) continue;
+    ChainLatency chain;
+    std::vector<int64_t> e2e, processing, upstream, transport, command_transport;
+    std::map<std::string, std::vector<int64_t>> stage_values;
+    std::vector<std::string> stage_order;
+    auto add_stage = [&](const std::string& name, int64_t v) {
+      if (!stage_values.count(name)) stage_order.push_back(name);
+      stage_values[name].push_back(v);
+    };
+    for (const Frame& f : list) {
+      const Stamp& root = stamps[f.root];
+      if (root.utime < first || root.utime > last) continue;
+      ++chain.frames;
+      if (f.command < 0) {
+        // Where the trace stopped: the next channel the commanded frames of this camera went through.
+        std::string missing = named;
+        if (stamps[f.reached].channel != named) {
+          for (const Frame& g : list)
+            if (g.command >= 0) {
+              int m = input[g.command];
+              while (m >= 0 && input[m] >= 0 && stamps[input[m]].channel != stamps[f.reached].channel) m = input[m];
+              if (m >= 0) missing = stamps[m].channel;
+              break;
+            }
+        } else {
+          missing = "a later " + end;
+        }
+        ++chain.lost["no " + missing];
+        continue;
+      }
+      ++chain.commanded;
+      // The path: root, ..., the named message (the frame's own), then the command.
+      std::vector<int> path{f.reached};
+      while (input[path.back()] >= 0) path.push_back(input[path.back()]);
+      std::reverse(path.begin(), path.end());
+      const Stamp& cmd = stamps[f.command];
+      if (chain.path.empty()) {
+        for (int i : path) chain.path += stamps[i].channel + " > ";
+        chain.path += end;
+      }
+      int64_t proc = root.publish - root.utime, trans = 0;
+      add_stage("sensed -> " + root.channel + " published", root.publish - root.utime);
+      for (std::size_t k = 0; k < path.size(); ++k) {
+        const Stamp& a = stamps[path[k]];
+        const Stamp& b = k + 1 < path.size() ? stamps[path[k + 1]] : cmd;
+        if (k + 1 == path.size()) upstream.push_back(proc);
+        add_stage(a.channel + " transport", a.received - a.publish);
+        add_stage(b.channel + " node: received -> published", b.publish - a.received);
+        trans += a.received - a.publish;
+        proc += b.publish - a.received;
+      }
+      e2e.push_back(cmd.publish - root.utime);
+      processing.push_back(proc);
+      transport.push_back(trans);
+      command_transport.push_back(cmd.received - cmd.publish);
+    }
+    chain.end_to_end = distribution(std::move(e2e));
+    chain.processing = distribution(std::move(processing));
+    chain.upstream = distribution(std::move(upstream));
+    chain.transport = distribution(std::move(transport));
+    chain.command_transport = distribution(std::move(command_transport));
+    for (const auto& name : stage_order) chain.stages.emplace_back(name, distribution(std::move(stage_values[name])));
+    report.chains[root_channel] = std::move(chain);
+  }
+}
+
+}  // namespace
+
+LatencyReport latency(const std::vector<rt::LogRecord>& log, const LatencyOptions& options) {
   LatencyReport report;
+  report.command_channel = options.command_channel;
   std::vector<Stamp> stamps;
   for (const auto& r : log) {
     const auto fp = fingerprint(r.data.data(), r.data.size());
@@ -91,8 +222,10 @@ LatencyReport latency(const std::vector<rt::LogRecord>& log) {
     if (s.source_seq >= 0)
       for (const Stamp* c : candidates(s))
         if (c->frame_id == s.frame_id) frame_preserving.insert(s.channel);
-  std::map<std::string, std::vector<int64_t>> hops;
-  for (const auto& s : stamps) {
+  std::map<std::string, std::vector<int64_t>> hops, hop_processing;
+  std::vector<int> inputs(stamps.size(), -1);  // index of each message's input
+  for (std::size_t i = 0; i < stamps.size(); ++i) {
+    const Stamp& s = stamps[i];
     if (s.source_seq < 0) continue;  // raw sensor data
     const bool same_frame = frame_preserving.count(s.channel) > 0;
     const Stamp* input = nullptr;
@@ -103,9 +236,14 @@ LatencyReport latency(const std::vector<rt::LogRecord>& log) {
       ++report.untraced_by_channel[s.channel];
       continue;
     }
-    hops[input->channel + " -> " + s.channel].push_back(s.publish - input->publish);
+    inputs[i] = static_cast<int>(input - stamps.data());
+    const std::string hop = input->channel + " -> " + s.channel;
+    hops[hop].push_back(s.publish - input->publish);
+    hop_processing[hop].push_back(s.publish - input->received);
   }
   for (auto& [name, v] : hops) report.hops[name] = distribution(std::move(v));
+  for (auto& [name, v] : hop_processing) report.hop_processing[name] = distribution(std::move(v));
+  trace_chains(stamps, inputs, report);
   return report;
 }
 
@@ -127,6 +265,20 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
   for (const auto& [channel, c] : report.channels) row(channel, c.transport);
   out << "hops (input's publication to the output's, traced by utime and source_seq)\n" << header;
   for (const auto& [name, d] : report.hops) row(name, d);
+  out << "hop processing (the logger's receipt of the input, for the node's, to the output's publication)\n" << header;
+  for (const auto& [name, d] : report.hop_processing) row(name, d);
+  for (const auto& [root, c] : report.chains) {
+    out << "frame -> first " << report.command_channel << " that used it: " << c.path << "\n";
+    out << "  " << c.commanded << " of " << c.frames << " frames in the window used";
+    for (const auto& [why, n] : c.lost) out << ", " << n << " " << why;
+    out << "\n" << header;
+    row("end to end (utime -> command published)", c.end_to_end);
+    row("  processing (sum)", c.processing);
+    row("    up to the command's input", c.upstream);
+    row("  transport (sum)", c.transport);
+    for (const auto& [name, d] : c.stages) row("  " + name, d);
+    row("  (after) " + report.command_channel + " transport", c.command_transport);
+  }
   if (report.untraced > 0) {
     out << "  " << report.untraced << " derived messages whose input is not in the log:";
     for (const auto& [channel, n] : report.untraced_by_channel) out << " " << channel << " " << n;
@@ -135,6 +287,55 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
   if (report.unstamped > 0) out << "  " << report.unstamped << " messages without publish_utime left out\n";
   if (report.malformed > 0) out << "  " << report.malformed << " malformed events left out\n";
   return out.str();
+}
+
+namespace {
+
+rt::Json to_json(const Distribution& d) {
+  rt::Json j;
+  j["count"] = d.count;
+  j["p50_ms"] = rt::json_number(d.p50_ms, 3);
+  j["p99_ms"] = rt::json_number(d.p99_ms, 3);
+  j["max_ms"] = rt::json_number(d.max_ms, 3);
+  return j;
+}
+
+}  // namespace
+
+std::string latency_json(const std::string& path, const LatencyReport& report) {
+  rt::Json j;
+  j["log"] = path;
+  for (const auto& [channel, c] : report.channels) {
+    if (c.age.count > 0) j["age"][channel] = to_json(c.age);
+    j["transport"][channel] = to_json(c.transport);
+  }
+  for (const auto& [name, d] : report.hops) j["hops"][name] = to_json(d);
+  for (const auto& [name, d] : report.hop_processing) j["hop_processing"][name] = to_json(d);
+  j["command_channel"] = report.command_channel;
+  j["chains"] = rt::Json::object();
+  for (const auto& [root, c] : report.chains) {
+    rt::Json& o = j["chains"][root];
+    o["path"] = c.path;
+    o["frames"] = c.frames;
+    o["commanded"] = c.commanded;
+    o["lost"] = rt::Json::object();
+    for (const auto& [why, n] : c.lost) o["lost"][why] = n;
+    o["end_to_end"] = to_json(c.end_to_end);
+    o["processing"] = to_json(c.processing);
+    o["upstream_processing"] = to_json(c.upstream);
+    o["transport"] = to_json(c.transport);
+    o["stages"] = rt::Json::array();
+    for (const auto& [name, d] : c.stages) {
+      rt::Json st = to_json(d);
+      st["stage"] = name;
+      o["stages"].push_back(st);
+    }
+    o["command_transport"] = to_json(c.command_transport);
+  }
+  j["untraced"] = report.untraced;
+  j["unstamped"] = report.unstamped;
+  j["malformed"] = report.malformed;
+  return rt::json_pretty(j);
 }
 
 }  // namespace harvest::logtools

@@ -46,6 +46,11 @@ int log_main(int argc, char** argv) {
 
   auto* lat = app.add_subcommand("latency", "age, transport and per-hop time of every message, from the headers");
   lat->add_option("log", log_path, "LCM log file")->required();
+  std::string json_out;
+  LatencyOptions lat_opt;
+  lat->add_option("--json", json_out, "also write the report as JSON to this file");
+  lat->add_option("--command-channel", lat_opt.command_channel, "the channel frames are followed to")
+      ->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -62,7 +67,12 @@ int log_main(int argc, char** argv) {
       return 0;
     }
     if (lat->parsed()) {
-      std::cout << format_latency(log_path, latency(log));
+      const LatencyReport report = latency(log, lat_opt);
+      std::cout << format_latency(log_path, report);
+      if (!json_out.empty()) {
+        std::ofstream f(json_out);
+        if (!(f << latency_json(log_path, report))) throw std::runtime_error("cannot write " + json_out);
+      }
       return 0;
     }
     if (exp->parsed()) {

@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <nlohmann/json.hpp>
 
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/image_t.hpp"
 #include "harvest/operator_command_t.hpp"
+#include "harvest/robot_command_t.hpp"
 #include "harvest/targets_t.hpp"
 #include "runtime/log_io.hpp"
 
@@ -111,4 +113,110 @@ TEST(Latency, MissingInputsUnstampedAndMalformedAreCountedNotFatal) {
   const auto text = lt::format_latency("x.lcmlog", r);
   EXPECT_NE(text.find("2 derived messages whose input is not in the log: FRUIT_HAND 2"), std::string::npos) << text;
   EXPECT_NE(text.find("CAMERA_FIXED -> FRUIT_FIXED"), std::string::npos) << text;
+}
+
+namespace {
+
+// A controller that ticks every 20 ms and names the newest TARGETS in each command, fed by a hand camera every
+// 25 ms and one fixed-camera frame. All times in ms after 1 s:
+//   hand frame k sensed at 25k, published +1, its detections at +4, its targets at +5; frame 4's detections
+//   are missing; the fixed frame sensed at 40, published 41, detections 44, targets 45;
+//   TARGETS seq 0..5 = hand 0 (5), hand 1 (30), fixed (45), hand 2 (55), hand 3 (80), hand 5 (130);
+//   commands at 7, 27, ..., 147 name seq 0, 0, 2, 3, 4, 4, 4, 5 (the newest targets published before them).
+// The logger receives camera frames and targets 100 us after publication, detections 200 us, commands 50 us.
+std::vector<rt::LogRecord> command_log() {
+  std::vector<rt::LogRecord> log;
+  auto ms = [](double v) { return static_cast<int64_t>(1'000'000 + v * 1000); };
+  struct Targets {
+    int64_t utime, seq, publish;
+  };
+  std::vector<Targets> targets;
+  auto frame = [&](const char* cam, const char* det_ch, const char* frame_id, double sensed, int64_t seq,
+                   int64_t det_seq, bool detected) {
+    harvest::image_t img{};
+    stamp(img, frame_id, ms(sensed), seq, -1, ms(sensed + 1));
+    log.push_back({ms(sensed + 1.1), cam, rt::encode(img)});
+    if (!detected) return;
+    harvest::fruit_detections_t d{};
+    stamp(d, frame_id, ms(sensed), det_seq, seq, ms(sensed + 4));
+    log.push_back({ms(sensed + 4.2), det_ch, rt::encode(d)});
+    harvest::targets_t t{};
+    stamp(t, "base", ms(sensed), static_cast<int64_t>(targets.size()), det_seq, ms(sensed + 5));
+    targets.push_back({ms(sensed), t.header.seq, ms(sensed + 5)});
+    log.push_back({ms(sensed + 5.1), "TARGETS", rt::encode(t)});
+  };
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 0, 0, 0, true);
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 25, 1, 1, true);
+  frame("CAMERA_FIXED", "FRUIT_FIXED", "camera_fixed", 40, 0, 0, true);
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 50, 2, 2, true);
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 75, 3, 3, true);
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 100, 4, 4, false);
+  frame("CAMERA_HAND", "FRUIT_HAND", "camera_hand", 125, 5, 4, true);
+  for (int j = 0; j < 8; ++j) {
+    const int64_t tick = ms(7 + 20 * j);
+    const Targets* newest = nullptr;
+    for (const auto& t : targets)
+      if (t.publish < tick) newest = &t;
+    harvest::robot_command_t c{};
+    stamp(c, "base", newest->utime, j, newest->seq, tick);
+    log.push_back({tick + 50, "ROBOT_COMMAND", rt::encode(c)});
+  }
+  std::stable_sort(log.begin(), log.end(), [](const auto& a, const auto& b) { return a.timestamp < b.timestamp; });
+  return log;
+}
+
+}  // namespace
+
+TEST(Latency, EveryFrameIsFollowedToTheFirstCommandThatUsedIt) {
+  const auto r = lt::latency(command_log());
+  EXPECT_DOUBLE_EQ(r.hops.at("TARGETS -> ROBOT_COMMAND").p50_ms, 12.0);  // 2, 22, 2, 12, 7, 27, 47, 17 ms
+  EXPECT_DOUBLE_EQ(r.hop_processing.at("CAMERA_HAND -> FRUIT_HAND").p50_ms, 2.9);
+  ASSERT_EQ(r.chains.count("CAMERA_HAND"), 1u);
+  const auto& hand = r.chains.at("CAMERA_HAND");
+  EXPECT_EQ(hand.path, "CAMERA_HAND > FRUIT_HAND > TARGETS > ROBOT_COMMAND");
+  // Frames 0..5 lie in the window; frame 4 has no detections.
+  EXPECT_EQ(hand.frames, 6);
+  EXPECT_EQ(hand.commanded, 5);
+  ASSERT_EQ(hand.lost.size(), 1u);
+  EXPECT_EQ(hand.lost.at("no FRUIT_HAND"), 1);
+  // Frame 1's targets (seq 1) were never named: the command at 47 ms (naming seq 2) is the first that used them.
+  // End to end 7, 22, 17, 12, 22 ms.
+  EXPECT_EQ(hand.end_to_end.count, 5);
+  EXPECT_DOUBLE_EQ(hand.end_to_end.p50_ms, 17.0);
+  EXPECT_DOUBLE_EQ(hand.end_to_end.max_ms, 22.0);
+  // Camera 1 + detector 2.9 + reconstructor 0.8; transport 0.1 + 0.2 + 0.1.
+  EXPECT_DOUBLE_EQ(hand.upstream.max_ms, 4.7);
+  EXPECT_DOUBLE_EQ(hand.transport.p50_ms, 0.4);
+  EXPECT_DOUBLE_EQ(hand.processing.max_ms, 21.6);
+  ASSERT_EQ(hand.stages.size(), 7u);
+  EXPECT_EQ(hand.stages[0].first, "sensed -> CAMERA_HAND published");
+  EXPECT_DOUBLE_EQ(hand.stages[0].second.p50_ms, 1.0);
+  EXPECT_EQ(hand.stages[3].first, "FRUIT_HAND transport");
+  EXPECT_DOUBLE_EQ(hand.stages[3].second.p50_ms, 0.2);
+  EXPECT_EQ(hand.stages[6].first, "ROBOT_COMMAND node: received -> published");
+  EXPECT_DOUBLE_EQ(hand.stages[6].second.max_ms, 16.9);  // 1.9, 16.9, 11.9, 6.9, 16.9
+  EXPECT_DOUBLE_EQ(hand.command_transport.max_ms, 0.05);
+  // The fixed frame's targets (seq 2) are named by the command at 47 ms: 7 ms after sensing.
+  const auto& fixed = r.chains.at("CAMERA_FIXED");
+  EXPECT_EQ(fixed.commanded, 1);
+  EXPECT_DOUBLE_EQ(fixed.end_to_end.max_ms, 7.0);
+  const auto json = nlohmann::json::parse(lt::latency_json("x.lcmlog", r));
+  EXPECT_EQ(json["chains"]["CAMERA_HAND"]["commanded"], 5);
+  EXPECT_EQ(json["chains"]["CAMERA_HAND"]["lost"]["no FRUIT_HAND"], 1);
+  EXPECT_DOUBLE_EQ(json["chains"]["CAMERA_HAND"]["end_to_end"]["p50_ms"].get<double>(), 17.0);
+  const auto text = lt::format_latency("x.lcmlog", r);
+  EXPECT_NE(text.find("5 of 6 frames in the window used, 1 no FRUIT_HAND"), std::string::npos) << text;
+}
+
+TEST(Latency, CommandsStampedWithTheRobotStateMakeNoChains) {
+  auto log = command_log();
+  for (auto& e : log)
+    if (e.channel == "ROBOT_COMMAND") {
+      auto c = *rt::decode<harvest::robot_command_t>(e.data);
+      c.header.utime = 5;  // an input not in the log
+      e.data = rt::encode(c);
+    }
+  const auto r = lt::latency(log);
+  EXPECT_TRUE(r.chains.empty());
+  EXPECT_EQ(r.untraced_by_channel.at("ROBOT_COMMAND"), 8);
 }
