@@ -37,8 +37,28 @@ struct Stamp {
 
 namespace {
 
+// The phase of a timer with this period that the publication times follow (each at or after its tick): they
+// cluster just after it modulo the period, so it is where the largest gap between their residues ends. An
+// estimate: a node late by more than the rest of its period blurs it.
+int64_t timer_phase(std::vector<int64_t> publish, int64_t period) {
+  for (auto& p : publish) p = ((p % period) + period) % period;
+  std::sort(publish.begin(), publish.end());
+  std::size_t after_gap = 0;
+  int64_t widest = -1;
+  for (std::size_t i = 0; i < publish.size(); ++i) {
+    const std::size_t next = (i + 1) % publish.size();
+    const int64_t gap = ((publish[next] - publish[i]) % period + period) % period;
+    if (gap > widest) {
+      widest = gap;
+      after_gap = next;
+    }
+  }
+  return publish[after_gap];
+}
+
 // Where each root frame's trace leads: the stages from its sensing to the first command that used it.
-void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& input, LatencyReport& report) {
+void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& input, int64_t period,
+                  LatencyReport& report) {
   const std::string& end = report.command_channel;
   // Commands traced to an input, in publication order, and the channel they name.
   std::vector<int> commands;
@@ -59,6 +79,24 @@ void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& inpu
         return c;
     return -1;
   };
+  // With the command node's timer period: when each command's tick was due.
+  std::map<int, int64_t> due;
+  if (period > 0) {
+    std::vector<int64_t> publish;
+    for (int c : commands) publish.push_back(stamps[c].publish);
+    const int64_t phase = timer_phase(publish, period);
+    std::vector<int64_t> late;
+    for (int c : commands) {
+      const int64_t l = ((stamps[c].publish - phase) % period + period) % period;
+      due[c] = stamps[c].publish - l;
+      late.push_back(l);
+    }
+    report.command_tick = distribution(std::move(late));
+  }
+  // Frames sensed before the one the first command names were superseded before any command went out.
+  int first_root = input[commands.front()];
+  while (input[first_root] >= 0) first_root = input[first_root];
+  const int64_t window_start = stamps[first_root].utime;
   std::vector<std::vector<int>> children(stamps.size());
   for (int i = 0; i < static_cast<int>(stamps.size()); ++i)
     if (input[i] >= 0) children[input[i]].push_back(i);
@@ -89,16 +127,14 @@ void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& inpu
   }
 
   for (auto& [root_channel, list] : frames) {
-    // Only channels whose frames reach a command; the window is from the first to the last frame one used.
-    int64_t first = INT64_MAX, last = INT64_MIN;
+    // Only channels whose frames reach a command; the window is from the frame the first command names to the
+    // last frame a command used.
+    int64_t last = INT64_MIN;
     for (const Frame& f : list)
-      if (f.command >= 0) {
-        first = std::min(first, stamps[f.root].utime);
-        last = std::max(last, stamps[f.root].utime);
-      }
-    if (first == INT64_MAX) continue;
+      if (f.command >= 0) last = std::max(last, stamps[f.root].utime);
+    if (last < window_start) continue;
     ChainLatency chain;
-    std::vector<int64_t> e2e, processing, upstream, transport, command_transport;
+    std::vector<int64_t> e2e, processing, upstream, transport, command_transport, own;
     std::map<std::string, std::vector<int64_t>> stage_values;
     std::vector<std::string> stage_order;
     auto add_stage = [&](const std::string& name, int64_t v) {
@@ -107,7 +143,7 @@ void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& inpu
     };
     for (const Frame& f : list) {
       const Stamp& root = stamps[f.root];
-      if (root.utime < first || root.utime > last) continue;
+      if (root.utime < window_start || root.utime > last) continue;
       ++chain.frames;
       if (f.command < 0) {
         // Where the trace stopped: the next channel the commanded frames of this camera went through.
@@ -143,7 +179,15 @@ void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& inpu
         const Stamp& b = k + 1 < path.size() ? stamps[path[k + 1]] : cmd;
         if (k + 1 == path.size()) upstream.push_back(proc);
         add_stage(a.channel + " transport", a.received - a.publish);
-        add_stage(b.channel + " node: received -> published", b.publish - a.received);
+        if (&b == &cmd && period > 0) {
+          // Received, then waiting for the tick (none if the tick was late and found it), then the tick's work.
+          const int64_t start = std::max(due.at(f.command), a.received);
+          add_stage(b.channel + " node: received -> timer due", start - a.received);
+          add_stage(b.channel + " node: timer due -> published", b.publish - start);
+          own.push_back(proc + b.publish - start);
+        } else {
+          add_stage(b.channel + " node: received -> published", b.publish - a.received);
+        }
         trans += a.received - a.publish;
         proc += b.publish - a.received;
       }
@@ -155,6 +199,7 @@ void trace_chains(const std::vector<Stamp>& stamps, const std::vector<int>& inpu
     chain.end_to_end = distribution(std::move(e2e));
     chain.processing = distribution(std::move(processing));
     chain.upstream = distribution(std::move(upstream));
+    chain.own = distribution(std::move(own));
     chain.transport = distribution(std::move(transport));
     chain.command_transport = distribution(std::move(command_transport));
     for (const auto& name : stage_order) chain.stages.emplace_back(name, distribution(std::move(stage_values[name])));
@@ -243,7 +288,7 @@ LatencyReport latency(const std::vector<rt::LogRecord>& log, const LatencyOption
   }
   for (auto& [name, v] : hops) report.hops[name] = distribution(std::move(v));
   for (auto& [name, v] : hop_processing) report.hop_processing[name] = distribution(std::move(v));
-  trace_chains(stamps, inputs, report);
+  trace_chains(stamps, inputs, options.command_period_us, report);
   return report;
 }
 
@@ -251,12 +296,12 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
   std::ostringstream out;
   char line[256];
   auto row = [&](const std::string& name, const Distribution& d) {
-    std::snprintf(line, sizeof line, "  %-40s %8lld %9.3f %9.3f %9.3f\n", name.c_str(), static_cast<long long>(d.count),
+    std::snprintf(line, sizeof line, "  %-46s %8lld %9.3f %9.3f %9.3f\n", name.c_str(), static_cast<long long>(d.count),
                   d.p50_ms, d.p99_ms, d.max_ms);
     out << line;
   };
   out << path << "\n";
-  std::snprintf(line, sizeof line, "  %-40s %8s %9s %9s %9s\n", "", "count", "p50 ms", "p99 ms", "max ms");
+  std::snprintf(line, sizeof line, "  %-46s %8s %9s %9s %9s\n", "", "count", "p50 ms", "p99 ms", "max ms");
   const std::string header = line;
   out << "age at publication (publish_utime - utime: from sensing)\n" << header;
   for (const auto& [channel, c] : report.channels)
@@ -267,6 +312,11 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
   for (const auto& [name, d] : report.hops) row(name, d);
   out << "hop processing (the logger's receipt of the input, for the node's, to the output's publication)\n" << header;
   for (const auto& [name, d] : report.hop_processing) row(name, d);
+  if (report.command_tick.count > 0) {
+    out << report.command_channel << " after its timer was due (the timer's phase estimated from the commands)\n"
+        << header;
+    row("all " + report.command_channel, report.command_tick);
+  }
   for (const auto& [root, c] : report.chains) {
     out << "frame -> first " << report.command_channel << " that used it: " << c.path << "\n";
     out << "  " << c.commanded << " of " << c.frames << " frames in the window used";
@@ -275,6 +325,7 @@ std::string format_latency(const std::string& path, const LatencyReport& report)
     row("end to end (utime -> command published)", c.end_to_end);
     row("  processing (sum)", c.processing);
     row("    up to the command's input", c.upstream);
+    if (c.own.count > 0) row("    without the wait for the timer", c.own);
     row("  transport (sum)", c.transport);
     for (const auto& [name, d] : c.stages) row("  " + name, d);
     row("  (after) " + report.command_channel + " transport", c.command_transport);
@@ -312,6 +363,7 @@ std::string latency_json(const std::string& path, const LatencyReport& report) {
   for (const auto& [name, d] : report.hops) j["hops"][name] = to_json(d);
   for (const auto& [name, d] : report.hop_processing) j["hop_processing"][name] = to_json(d);
   j["command_channel"] = report.command_channel;
+  if (report.command_tick.count > 0) j["command_tick"] = to_json(report.command_tick);
   j["chains"] = rt::Json::object();
   for (const auto& [root, c] : report.chains) {
     rt::Json& o = j["chains"][root];
@@ -323,6 +375,7 @@ std::string latency_json(const std::string& path, const LatencyReport& report) {
     o["end_to_end"] = to_json(c.end_to_end);
     o["processing"] = to_json(c.processing);
     o["upstream_processing"] = to_json(c.upstream);
+    if (c.own.count > 0) o["own_processing"] = to_json(c.own);
     o["transport"] = to_json(c.transport);
     o["stages"] = rt::Json::array();
     for (const auto& [name, d] : c.stages) {

@@ -42,13 +42,16 @@ struct ChannelLatency {
 // node's processing (its publication minus that receipt).
 struct ChainLatency {
   std::string path;                     // "CAMERA_HAND > FRUIT_HAND > TARGETS > ROBOT_COMMAND"
-  int64_t frames = 0;                   // frames sensed between the first and the last frame a command used
+  int64_t frames = 0;                   // frames sensed from the one the first command names to the last one used
   int64_t commanded = 0;                // ... of them used by a command
   std::map<std::string, int64_t> lost;  // the others by where their trace ends: "no FRUIT_HAND", "no TARGETS"
   Distribution end_to_end;              // command publication - frame utime
   Distribution processing;  // the processing stages' sum (the command's node including any wait for its timer)
   Distribution upstream;    // ... without the command's node: sensing to the named input's publication
-  Distribution transport;   // the transport stages' sum
+  // With the command node's timer period known: the processing without the wait for the timer (up to the
+  // command's input, then the tick's own work from when it was due).
+  Distribution own;
+  Distribution transport;                                    // the transport stages' sum
   std::vector<std::pair<std::string, Distribution>> stages;  // in chain order
   Distribution command_transport;  // the command's own publication to the logger's receipt (not in end_to_end)
 };
@@ -65,10 +68,15 @@ struct LatencyReport {
   int64_t malformed = 0;                       // events that do not decode
   std::string command_channel;                 // the channel chains end on
   std::map<std::string, ChainLatency> chains;  // by root channel; empty if no command traces to a frame
+  Distribution command_tick;                   // traced commands' publication after their tick was due
 };
 
 struct LatencyOptions {
   std::string command_channel = "ROBOT_COMMAND";
+  // The command node's timer period (the servo controller's tick_period_s), 0 if unknown. Its timer fires at
+  // t0 + k * period exactly, so the commands' phase splits its stage into the wait for the tick and the tick's
+  // own work (an estimate: see timer_phase in latency.cpp).
+  int64_t command_period_us = 0;
 };
 
 LatencyReport latency(const std::vector<rt::LogRecord>& log, const LatencyOptions& options = {});
