@@ -121,6 +121,8 @@ def main():
     ap.add_argument("--set", action="append", default=[], metavar="PROCESS:KEY=VALUE",
                     help="a configuration override for one process (camera-fixed, servo-controller, ...)")
     args = ap.parse_args()
+    # A SIGTERM (a test's timeout) unwinds through the finally below, which stops every process it started.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
     bin_dir = (args.build_dir if args.build_dir.is_absolute() else ROOT / args.build_dir) / "bin"
     harvest_log = bin_dir / "harvest-log"

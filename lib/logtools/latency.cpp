@@ -20,6 +20,7 @@ Distribution distribution(std::vector<int64_t> v) {
     const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
     return static_cast<double>(v[std::clamp<std::size_t>(k, 1, v.size()) - 1]) * 1e-3;
   };
+  d.min_ms = static_cast<double>(v.front()) * 1e-3;
   d.p50_ms = rank(0.50);
   d.p99_ms = rank(0.99);
   d.max_ms = static_cast<double>(v.back()) * 1e-3;
@@ -345,6 +346,7 @@ namespace {
 rt::Json to_json(const Distribution& d) {
   rt::Json j;
   j["count"] = d.count;
+  j["min_ms"] = rt::json_number(d.min_ms, 3);
   j["p50_ms"] = rt::json_number(d.p50_ms, 3);
   j["p99_ms"] = rt::json_number(d.p99_ms, 3);
   j["max_ms"] = rt::json_number(d.max_ms, 3);
@@ -386,6 +388,8 @@ std::string latency_json(const std::string& path, const LatencyReport& report) {
     o["command_transport"] = to_json(c.command_transport);
   }
   j["untraced"] = report.untraced;
+  j["untraced_by_channel"] = rt::Json::object();
+  for (const auto& [channel, n] : report.untraced_by_channel) j["untraced_by_channel"][channel] = n;
   j["unstamped"] = report.unstamped;
   j["malformed"] = report.malformed;
   return rt::json_pretty(j);

@@ -21,7 +21,7 @@ namespace harvest::logtools {
 
 struct Distribution {
   int64_t count = 0;
-  double p50_ms = 0, p99_ms = 0, max_ms = 0;
+  double min_ms = 0, p50_ms = 0, p99_ms = 0, max_ms = 0;
 };
 // Nearest-rank percentiles of values in microseconds.
 Distribution distribution(std::vector<int64_t> values_us);

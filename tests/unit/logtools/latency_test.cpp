@@ -62,6 +62,7 @@ TEST(Latency, NearestRankPercentiles) {
   EXPECT_DOUBLE_EQ(d.p50_ms, 100.0);
   EXPECT_DOUBLE_EQ(d.p99_ms, 198.0);
   EXPECT_DOUBLE_EQ(d.max_ms, 200.0);
+  EXPECT_DOUBLE_EQ(d.min_ms, 1.0);
   EXPECT_EQ(lt::distribution({}).count, 0);
 }
 
