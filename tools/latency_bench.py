@@ -104,6 +104,14 @@ def states_seen(harvest_log, log_file):
     return seen
 
 
+def controller_fault(output):
+    """The first FAULT the servo controller logged, or None."""
+    for line in output.read_text(errors="replace").splitlines():
+        if "FAULT: " in line:
+            return line.split("FAULT: ", 1)[1]
+    return None
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seconds", type=float, default=20.0, help="measured time after START [s] (default 20)")
@@ -118,6 +126,10 @@ def main():
     ap.add_argument("--height", type=int, default=240, help="published frame height [px]")
     ap.add_argument("--tick-period-ms", type=float, default=20.0,
                     help="the controller's tick_period_s in ms (config/servo/controller.yaml)")
+    ap.add_argument("--realtime", type=int, default=0, metavar="PRIO",
+                    help="SCHED_FIFO priority for the robot link (control.realtime_priority, as on the robot "
+                    "computer) and the simulated drives (chrt; hardware in the field); 0: normal scheduling. "
+                    "On a loaded machine a starved link or drive misses the 25 ms RPDO deadline and the arm faults")
     ap.add_argument("--set", action="append", default=[], metavar="PROCESS:KEY=VALUE",
                     help="a configuration override for one process (camera-fixed, servo-controller, ...)")
     args = ap.parse_args()
@@ -147,11 +159,13 @@ def main():
     log_file = out / "latency.lcmlog"
     try:
         procs.start("logger", ["lcm-logger", "-f", f"--lcm-url={url}", str(log_file)])
-        procs.start("sim-drives", [str(bin_dir / "harvest-sim-drives"), *common, "--config",
+        chrt = ["chrt", "-f", str(args.realtime)] if args.realtime > 0 else []
+        procs.start("sim-drives", [*chrt, str(bin_dir / "harvest-sim-drives"), *common, "--config",
                                    "config/arm/sim_drives.yaml", "--set", f"bus={bus}"])
         time.sleep(0.3)
         procs.start("robot-link", [str(bin_dir / "harvest-robot-link"), *common, "--config",
-                                   "config/arm/robot_link.yaml", "--set", f"bus={bus}",
+                                   "config/arm/robot_link.yaml", "--set", f"bus={bus}", "--set",
+                                   f"control.realtime_priority={args.realtime}",
                                    *overrides.get("robot-link", [])])
         for cam in ("fixed", "hand"):
             procs.start(f"detector-{cam}", [str(bin_dir / "harvest-fruit-detector"), *common, "--instance",
@@ -217,6 +231,8 @@ def main():
         "loadavg_before": load_before,
         "loadavg_after": load_after,
         "controller_states": states_seen(harvest_log, log_file),
+        "controller_fault": controller_fault(out / "servo-controller.txt"),
+        "realtime_priority": args.realtime,
     }
     json_file.write_text(json.dumps(report, indent=2) + "\n")
     print(f"controller states: {' -> '.join(map(str, report['bench']['controller_states']))}")
@@ -228,6 +244,9 @@ def main():
         print(f"{root}: {c['commanded']} of {c['frames']} frames used by a command; frame -> command "
               f"p50 {e['p50_ms']} / p99 {e['p99_ms']} / max {e['max_ms']} ms; own processing without the wait "
               f"for the controller's tick p50 {p['p50_ms']} / p99 {p['p99_ms']} / max {p['max_ms']} ms")
+    if report["bench"]["controller_fault"]:
+        print(f"WARNING: the controller faulted during the run ({report['bench']['controller_fault'][:160]}...): "
+              f"its commands after that are STOPs")
     print(f"wrote {json_file} and {log_file}")
     if not report.get("chains"):
         sys.exit("latency-bench: no command traced back to a camera frame")

@@ -241,6 +241,28 @@ TEST(Latency, TheCommandTimersPeriodSplitsOffTheWaitForTheTick) {
   EXPECT_NE(lt::format_latency("x", r).find("without the wait for the timer"), std::string::npos);
 }
 
+// A timer rounded to milliseconds: on-time ticks spread over 0..1 ms after their due time, crowded at 0.6-0.87
+// ms. The phase is where the spread begins, not the crowd: no command comes out a period late.
+TEST(Latency, TheTimersPhaseIsWhereItsOnTimeTicksBegin) {
+  std::vector<rt::LogRecord> log;
+  harvest::targets_t t{};
+  stamp(t, "base", 1'000'000, 0, 0, 1'000'000);
+  log.push_back({1'000'100, "TARGETS", rt::encode(t)});
+  for (int k = 0; k < 50; ++k) {
+    const int64_t late = k < 10 ? k * 60 : 600 + (k % 10) * 30;  // 0..540 us, then 600..870 us
+    harvest::robot_command_t c{};
+    const int64_t publish = 1'007'000 + k * 20'000 + late;
+    stamp(c, "base", 1'000'000, k, 0, publish);
+    log.push_back({publish + 50, "ROBOT_COMMAND", rt::encode(c)});
+  }
+  lt::LatencyOptions o;
+  o.command_period_us = 20'000;
+  const auto r = lt::latency(log, o);
+  EXPECT_EQ(r.command_tick.count, 50);
+  EXPECT_DOUBLE_EQ(r.command_tick.min_ms, 0.0);
+  EXPECT_DOUBLE_EQ(r.command_tick.max_ms, 0.87);
+}
+
 TEST(Latency, CommandsStampedWithTheRobotStateMakeNoChains) {
   auto log = command_log();
   for (auto& e : log)
