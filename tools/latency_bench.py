@@ -66,6 +66,18 @@ class Processes:
                     p.wait()
             out.close()
 
+    def cpu_seconds(self):
+        """User + system CPU time of every running process so far [s] (/proc/PID/stat), by name."""
+        tick = os.sysconf("SC_CLK_TCK")
+        out = {}
+        for name, p, _ in self.procs:
+            try:
+                fields = Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()
+                out[name] = (int(fields[11]) + int(fields[12])) / tick
+            except (OSError, IndexError, ValueError):
+                pass
+        return out
+
     def stop_all(self):
         # Commands first, then the arm, then the rest; the logger last.
         order = ["servo-controller", "robot-link", "sim-drives"]
@@ -78,11 +90,11 @@ class Processes:
 def extract_frames(harvest_log, source_log, channel, folder):
     folder.mkdir(parents=True, exist_ok=True)
     r = subprocess.run([str(harvest_log), "frames", str(source_log), channel, "--out", str(folder), "--max", "1000",
-                        "--sensor-size"],
+                        "--sensor-size", "--format", "bmp"],
                        capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"latency-bench: cannot extract {channel} frames from {source_log}: {r.stderr.strip()}")
-    n = len(list(folder.glob("*.png")))
+    n = len(list(folder.glob("*.bmp")))
     if n == 0:
         sys.exit(f"latency-bench: no {channel} frames in {source_log}")
     return n
@@ -199,15 +211,18 @@ def main():
         if not started:
             raise RuntimeError(f"the servo controller never acknowledged START; exited: {procs.dead()}")
         log(f"started; measuring {args.seconds:.0f} s")
-        t_end = time.monotonic() + args.seconds
+        cpu_start, t_start = procs.cpu_seconds(), time.monotonic()
+        t_end = t_start + args.seconds
         while time.monotonic() < t_end:
             time.sleep(0.2)
             if procs.dead():
                 raise RuntimeError(f"a process ended during the run: {procs.dead()} (outputs in {out})")
+        cpu_end, wall = procs.cpu_seconds(), time.monotonic() - t_start
+        cpu = {n: cpu_end[n] - cpu_start[n] for n in cpu_end if n in cpu_start}
     finally:
         procs.stop_all()
         load_after = os.getloadavg()
-        for f in frames.glob("*/*.png"):
+        for f in frames.glob("*/*.bmp"):
             f.unlink()
         for d in frames.iterdir():
             d.rmdir()
@@ -233,11 +248,19 @@ def main():
         "controller_states": states_seen(harvest_log, log_file),
         "controller_fault": controller_fault(out / "servo-controller.txt"),
         "realtime_priority": args.realtime,
+        # CPU time each process used during the measured time: what our processing costs, apart from the wait
+        # for a CPU that the wall-clock stages include on a shared machine.
+        "cpu_percent_of_one_core": {n: round(100.0 * c / wall, 1) for n, c in sorted(cpu.items())},
+        "cpu_ms_per_frame": {n: round(1000.0 * c / (wall * args.rate), 3) for n, c in sorted(cpu.items())
+                             if n.startswith(("camera-", "detector-"))},
     }
     json_file.write_text(json.dumps(report, indent=2) + "\n")
     print(f"controller states: {' -> '.join(map(str, report['bench']['controller_states']))}")
     print(f"load average (1/5/15 min) before {load_before[0]:.2f}/{load_before[1]:.2f}/{load_before[2]:.2f}, "
           f"after {load_after[0]:.2f}/{load_after[1]:.2f}/{load_after[2]:.2f} on {os.cpu_count()} CPUs")
+    print("CPU during the measured time (% of one core): " +
+          ", ".join(f"{n} {v}" for n, v in report["bench"]["cpu_percent_of_one_core"].items()))
+    print("CPU per frame [ms]: " + ", ".join(f"{n} {v}" for n, v in report["bench"]["cpu_ms_per_frame"].items()))
     for root, c in sorted(report.get("chains", {}).items()):
         e = c["end_to_end"]
         p = c.get("own_processing", c["upstream_processing"])

@@ -23,11 +23,12 @@ std::vector<std::string> write_frames(const std::vector<rt::LogRecord>& log, con
       if (r.channel == o.detections_channel)
         if (auto d = rt::decode<fruit_detections_t>(r.data)) detections[d->header.utime] = *d;
 
+  if (o.format != "png" && o.format != "bmp") throw std::invalid_argument("frames: format png or bmp, not " + o.format);
   std::filesystem::create_directories(o.out_dir);
   std::vector<std::string> written;
   auto write_png = [&](const std::string& channel, int index, const cv::Mat& image) {
     char name[64];
-    std::snprintf(name, sizeof name, "%s_%05d.png", channel.c_str(), index);
+    std::snprintf(name, sizeof name, "%s_%05d.%s", channel.c_str(), index, o.format.c_str());
     const std::string path = (std::filesystem::path(o.out_dir) / name).string();
     if (!cv::imwrite(path, image)) {
       err << "cannot write " << path << "\n";

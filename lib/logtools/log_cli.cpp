@@ -44,6 +44,10 @@ int log_main(int argc, char** argv) {
   frm->add_option("--out", out_dir, "output folder")->required();
   frm->add_option("--every", every, "every n-th frame")->check(CLI::PositiveNumber)->capture_default_str();
   frm->add_option("--max", max_frames, "at most this many frames")->check(CLI::PositiveNumber)->capture_default_str();
+  std::string frame_format = "png";
+  frm->add_option("--format", frame_format, "png, or bmp (uncompressed: a camera driver reads it faster)")
+      ->check(CLI::IsMember({"png", "bmp"}))
+      ->capture_default_str();
   bool sensor_size = false;
   frm->add_flag("--sensor-size", sensor_size,
                 "the frames alone (no label, no overlay) at the size of the sensor region they show: a folder "
@@ -108,6 +112,7 @@ int log_main(int argc, char** argv) {
     o.every = every;
     o.max = max_frames;
     o.sensor_size = sensor_size;
+    o.format = frame_format;
     const auto written = write_frames(log, o, std::cerr);
     for (const auto& p : written) std::cout << p << "\n";
     return written.empty() ? 1 : 0;

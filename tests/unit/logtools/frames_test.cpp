@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -72,9 +73,11 @@ TEST(Frames, SensorSizeFramesAreTheImageAloneAtTheSizeOfTheRegionTheyShow) {
   ht::TempDir dir;
   lt::FramesOptions o{"CAMERA_HAND", "", (dir / "frames").string(), 1, 10};
   o.sensor_size = true;
+  o.format = "bmp";
   std::ostringstream err;
   const auto written = lt::write_frames({{1000, "CAMERA_HAND", rt::encode(img)}}, o, err);
   ASSERT_EQ(written.size(), 1u) << err.str();
+  EXPECT_EQ(std::filesystem::path(written[0]).extension(), ".bmp");
   const cv::Mat3b out = cv::imread(written[0]);
   EXPECT_EQ(out.cols, 160);
   EXPECT_EQ(out.rows, 120);
