@@ -23,8 +23,19 @@ std::vector<std::string> write_frames(const std::vector<rt::LogRecord>& log, con
       if (r.channel == o.detections_channel)
         if (auto d = rt::decode<fruit_detections_t>(r.data)) detections[d->header.utime] = *d;
 
+  if (o.format != "png" && o.format != "bmp") throw std::invalid_argument("frames: format png or bmp, not " + o.format);
   std::filesystem::create_directories(o.out_dir);
   std::vector<std::string> written;
+  auto write_png = [&](const std::string& channel, int index, const cv::Mat& image) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%05d.%s", channel.c_str(), index, o.format.c_str());
+    const std::string path = (std::filesystem::path(o.out_dir) / name).string();
+    if (!cv::imwrite(path, image)) {
+      err << "cannot write " << path << "\n";
+      return;
+    }
+    written.push_back(path);
+  };
   int index = -1;
   bool any = false;
   for (const auto& r : log) {
@@ -45,6 +56,13 @@ std::vector<std::string> write_frames(const std::vector<rt::LogRecord>& log, con
     }
     cv::Mat3b canvas = decoded.bgr.clone();
     const cv::Rect2d roi = camera::image_roi(*img);
+    if (o.sensor_size) {
+      if (roi.width > 0 && roi.height > 0 && cv::Size(canvas.size()) != cv::Size(roi.size()))
+        cv::resize(decoded.bgr, canvas, cv::Size(static_cast<int>(roi.width), static_cast<int>(roi.height)), 0, 0,
+                   cv::INTER_LINEAR);
+      write_png(o.image_channel, index, canvas);
+      continue;
+    }
     const double sx = roi.width > 0 ? canvas.cols / roi.width : 1.0;
     const double sy = roi.height > 0 ? canvas.rows / roi.height : 1.0;
     auto it = detections.find(img->header.utime);
@@ -69,14 +87,7 @@ std::vector<std::string> write_frames(const std::vector<rt::LogRecord>& log, con
       label.append(", no detections");
     }
     cv::putText(canvas, label, {5, 15}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    char name[64];
-    std::snprintf(name, sizeof name, "%s_%05d.png", o.image_channel.c_str(), index);
-    const std::string path = (std::filesystem::path(o.out_dir) / name).string();
-    if (!cv::imwrite(path, canvas)) {
-      err << "cannot write " << path << "\n";
-      continue;
-    }
-    written.push_back(path);
+    write_png(o.image_channel, index, canvas);
   }
   if (!any) throw std::runtime_error("no image_t messages on channel '" + o.image_channel + "'");
   return written;

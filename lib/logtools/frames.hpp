@@ -16,6 +16,11 @@ struct FramesOptions {
   std::string out_dir;
   int every = 1;  // every n-th frame
   int max = 10;   // at most this many files
+  // The frame alone, no label or overlay, at the size of the sensor region it
+  // shows (a 320x240 frame of a 640x480 sensor comes out 640x480): a folder a
+  // camera driver replays as the same sensor (tools/latency_bench.py).
+  bool sensor_size = false;
+  std::string format = "png";  // png, or bmp: uncompressed, read in a fraction of a PNG's decoding time
 };
 
 // Returns the paths written; errors about single frames go to `err`.

@@ -1,6 +1,7 @@
 #include "logtools/log_cli.hpp"
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <fstream>
 #include <iostream>
 
@@ -43,9 +44,27 @@ int log_main(int argc, char** argv) {
   frm->add_option("--out", out_dir, "output folder")->required();
   frm->add_option("--every", every, "every n-th frame")->check(CLI::PositiveNumber)->capture_default_str();
   frm->add_option("--max", max_frames, "at most this many frames")->check(CLI::PositiveNumber)->capture_default_str();
+  std::string frame_format = "png";
+  frm->add_option("--format", frame_format, "png, or bmp (uncompressed: a camera driver reads it faster)")
+      ->check(CLI::IsMember({"png", "bmp"}))
+      ->capture_default_str();
+  bool sensor_size = false;
+  frm->add_flag("--sensor-size", sensor_size,
+                "the frames alone (no label, no overlay) at the size of the sensor region they show: a folder "
+                "harvest-camera replays as the same sensor");
 
   auto* lat = app.add_subcommand("latency", "age, transport and per-hop time of every message, from the headers");
   lat->add_option("log", log_path, "LCM log file")->required();
+  std::string json_out;
+  LatencyOptions lat_opt;
+  lat->add_option("--json", json_out, "also write the report as JSON to this file");
+  lat->add_option("--command-channel", lat_opt.command_channel, "the channel frames are followed to")
+      ->capture_default_str();
+  double command_period_ms = 0;
+  lat->add_option("--command-period-ms", command_period_ms,
+                  "the command node's timer period (the servo controller's tick_period_s): splits its stage into "
+                  "the wait for the timer and the tick's own work")
+      ->check(CLI::NonNegativeNumber);
 
   try {
     app.parse(argc, argv);
@@ -62,7 +81,13 @@ int log_main(int argc, char** argv) {
       return 0;
     }
     if (lat->parsed()) {
-      std::cout << format_latency(log_path, latency(log));
+      lat_opt.command_period_us = static_cast<int64_t>(std::llround(command_period_ms * 1000.0));
+      const LatencyReport report = latency(log, lat_opt);
+      std::cout << format_latency(log_path, report);
+      if (!json_out.empty()) {
+        std::ofstream f(json_out);
+        if (!(f << latency_json(log_path, report))) throw std::runtime_error("cannot write " + json_out);
+      }
       return 0;
     }
     if (exp->parsed()) {
@@ -86,6 +111,8 @@ int log_main(int argc, char** argv) {
     o.out_dir = out_dir;
     o.every = every;
     o.max = max_frames;
+    o.sensor_size = sensor_size;
+    o.format = frame_format;
     const auto written = write_frames(log, o, std::cerr);
     for (const auto& p : written) std::cout << p << "\n";
     return written.empty() ? 1 : 0;

@@ -202,6 +202,7 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     out.invalid_input = "TARGETS from " + msg.source_camera + " camera refused: " + *why;
     return out;
   }
+  vision_ = Source{msg.header.utime, msg.header.seq};
   if (msg.source_camera == "fixed") {
     out.status_changed = !fixed_;
     fixed_ = msg;

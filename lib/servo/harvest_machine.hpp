@@ -103,8 +103,11 @@ class HarvestMachine {
   }
   Eigen::Isometry3d tool() const { return robot_ ? to_isometry(robot_->tool_pose) : Eigen::Isometry3d::Identity(); }
   Eigen::Isometry3d camera() const { return robot_ ? to_isometry(robot_->camera_pose) : Eigen::Isometry3d::Identity(); }
-  // A command is derived from the newest robot state it was computed from.
+  // A command names the newest TARGETS taken in (its utime is that camera frame's, its source_seq that TARGETS
+  // seq), so a log traces it back to the frame; every earlier TARGETS was in the machine's state too. Before the
+  // first, the robot state it was computed from.
   CommandStamp stamp() const {
+    if (vision_) return {vision_->utime, vision_->seq, goal_.id()};
     return {robot_ ? robot_->header.utime : 0, robot_ ? robot_->header.seq : -1, goal_.id()};
   }
   robot_command_t stop() const { return commands_.stop(stamp()); }
@@ -175,6 +178,10 @@ class HarvestMachine {
 
   std::optional<robot_state_t> robot_;
   rt::Micros robot_rx_ = 0;
+  struct Source {
+    int64_t utime, seq;
+  };
+  std::optional<Source> vision_;  // the newest valid TARGETS, either camera
   std::optional<targets_t> fixed_;
   rt::Micros fixed_rx_ = 0;
   std::optional<gripper_state_t> gripper_;

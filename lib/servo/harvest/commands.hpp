@@ -1,7 +1,8 @@
 // The controller's command messages: ROBOT_COMMAND (STOP, pose goal, twist
 // through the limits) and GRIPPER_COMMAND. Every robot command carries the
 // validity window, the speed limits for the robot link and the current
-// goal id, and is stamped with the newest robot state it was computed from.
+// goal id, and is stamped with the input it names (HarvestMachine::stamp: the
+// newest TARGETS, before any the robot state).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -14,8 +15,8 @@
 
 namespace harvest::servo {
 
-// Where a command comes from: the robot state it was derived from (utime, seq;
-// 0 and -1 before the first) and the goal id in force.
+// Where a command comes from: the input it names (header utime and
+// source_seq; 0 and -1 before any) and the goal id in force.
 struct CommandStamp {
   int64_t utime = 0;
   int64_t seq = -1;

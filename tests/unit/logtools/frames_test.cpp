@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -53,4 +54,36 @@ TEST(Frames, DetectionsAreDrawnOnTheirOwnImage) {
   EXPECT_NEAR(off[2], 128, 20);
   o.image_channel = "NOPE";
   EXPECT_THROW(lt::write_frames(log, o, err), std::runtime_error);
+}
+
+// A half-size frame of a 160x120 sensor region comes out at the region's size, with nothing drawn on it.
+TEST(Frames, SensorSizeFramesAreTheImageAloneAtTheSizeOfTheRegionTheyShow) {
+  harvest::image_t img{};
+  img.header.utime = 1000;
+  img.encoding = harvest::image_t::ENCODING_BGR8;
+  img.width = 80;
+  img.height = 60;
+  img.stride = 240;
+  img.sensor_width = 160;
+  img.sensor_height = 120;
+  img.roi_px[2] = 160;
+  img.roi_px[3] = 120;
+  img.data.assign(240 * 60, 128);
+  img.size = static_cast<int32_t>(img.data.size());
+  ht::TempDir dir;
+  lt::FramesOptions o{"CAMERA_HAND", "", (dir / "frames").string(), 1, 10};
+  o.sensor_size = true;
+  o.format = "bmp";
+  std::ostringstream err;
+  const auto written = lt::write_frames({{1000, "CAMERA_HAND", rt::encode(img)}}, o, err);
+  ASSERT_EQ(written.size(), 1u) << err.str();
+  EXPECT_EQ(std::filesystem::path(written[0]).extension(), ".bmp");
+  const cv::Mat3b out = cv::imread(written[0]);
+  EXPECT_EQ(out.cols, 160);
+  EXPECT_EQ(out.rows, 120);
+  // No label: the whole image stays the grey it was.
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(out.reshape(1), &lo, &hi);
+  EXPECT_EQ(lo, 128);
+  EXPECT_EQ(hi, 128);
 }
