@@ -44,6 +44,7 @@ double last_truth_s(const std::vector<std::pair<double, std::string>>& statuses)
   o.tail = rt::from_seconds(40.0);
   SimConfig config;
   config.done_grace_s = 2.0;
+  config.render_thread = false;  // logical time: frames rendered on the loop
   SimNode node(config, nothing_to_pick());
   rt::ReplayRunner runner(o);
   runner.add(node);
