@@ -119,11 +119,10 @@ double SimNode::sim_time() const { return rt::to_seconds(now() - start_); }
 SimNode::~SimNode() = default;
 
 void SimNode::every_on_time(const std::string& name, rt::Micros period, std::function<void()> step) {
-  const std::size_t k = timekeeping_.add_step(name);
   const rt::Micros first = now() + period;
-  ctx().add_timer(first, period, [this, k, period, due = first, step = std::move(step)]() mutable {
-    timekeeping_.step_ran(k, due, now());
-    due += period;  // the runner re-arms at due + period, never at now + period
+  const std::size_t k = timekeeping_.add_step(name, first, period);
+  ctx().add_timer(first, period, [this, k, step = std::move(step)] {
+    timekeeping_.step_ran(k, now());
     step();
   });
 }

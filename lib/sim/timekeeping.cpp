@@ -11,18 +11,25 @@ double ms(rt::Micros t) { return static_cast<double>(t) / 1000.0; }
 
 }  // namespace
 
-std::size_t Timekeeping::add_step(std::string name) {
-  total_.push_back({name, 0, 0, 0});
-  window_.push_back({std::move(name), 0, 0, 0});
+std::size_t Timekeeping::add_step(std::string name, rt::Micros first_due, rt::Micros period) {
+  schedule_.push_back({first_due, period});
+  total_.push_back({name, 0, 0, 0, 0});
+  window_.push_back({std::move(name), 0, 0, 0, 0});
   return total_.size() - 1;
 }
 
-void Timekeeping::step_ran(std::size_t step, rt::Micros due, rt::Micros now) {
+void Timekeeping::step_ran(std::size_t step, rt::Micros now) {
+  Schedule& s = schedule_.at(step);
+  const rt::Micros due = s.next_due;
   const rt::Micros late = std::max<rt::Micros>(now - due, 0);
+  s.next_due += s.period;
   for (StepTotals* t : {&total_.at(step), &window_.at(step)}) {
     ++t->steps;
     if (late > late_after_) ++t->late;
-    t->max_late = std::max(t->max_late, late);
+    if (late > t->max_late) {
+      t->max_late = late;
+      t->max_late_at = due - start_;
+    }
   }
 }
 
@@ -36,11 +43,11 @@ std::vector<std::string> Timekeeping::report(rt::Micros now) {
   const double window_s = rt::to_seconds(now - window_start_);
   for (StepTotals& w : window_) {
     if (w.late > 0)
-      lines.push_back(
-          fmt::format("{} steps fell behind: {} of {} late by more than {:.0f} ms in the last {:.0f} s "
-                      "(at most {:.1f} ms)",
-                      w.name, w.late, w.steps, ms(late_after_), window_s, ms(w.max_late)));
-    w = {w.name, 0, 0, 0};
+      lines.push_back(fmt::format(
+          "{} steps fell behind: {} of {} late by more than {:.0f} ms in the last {:.0f} s "
+          "(at most {:.1f} ms, at t={:.2f} s)",
+          w.name, w.late, w.steps, ms(late_after_), window_s, ms(w.max_late), rt::to_seconds(w.max_late_at)));
+    w = {w.name, 0, 0, 0, 0};
   }
   for (int c = 0; c < kCameraCount; ++c) {
     FrameTotals& w = frames_window_[static_cast<std::size_t>(c)];
@@ -56,8 +63,8 @@ std::vector<std::string> Timekeeping::report(rt::Micros now) {
 std::string Timekeeping::summary(rt::Micros run_time) const {
   std::string s = fmt::format("timekeeping over {:.1f} s:", rt::to_seconds(run_time));
   for (const StepTotals& t : total_)
-    s += fmt::format(" {} {} steps, {} late by more than {:.0f} ms, at most {:.1f} ms late;", t.name, t.steps, t.late,
-                     ms(late_after_), ms(t.max_late));
+    s += fmt::format(" {} {} steps, {} late by more than {:.0f} ms, at most {:.1f} ms late (t={:.2f} s);", t.name,
+                     t.steps, t.late, ms(late_after_), ms(t.max_late), rt::to_seconds(t.max_late_at));
   for (int c = 0; c < kCameraCount; ++c) {
     const FrameTotals& t = frames_total_[static_cast<std::size_t>(c)];
     if (t.rendered + t.dropped > 0)

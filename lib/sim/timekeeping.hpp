@@ -24,11 +24,13 @@ class Timekeeping {
   explicit Timekeeping(rt::Micros late_after) : late_after_(late_after) {}
 
   // The run starts (the first report window).
-  void start(rt::Micros now) { window_start_ = now; }
-  // Adds a kind of step ("physics", "drives", ...); returns its index.
-  std::size_t add_step(std::string name);
-  // Step `step` due at `due` ran at `now`.
-  void step_ran(std::size_t step, rt::Micros due, rt::Micros now);
+  void start(rt::Micros now) { start_ = window_start_ = now; }
+  // Adds a periodic step ("physics", "drives", ...) first due at `first_due`;
+  // returns its index.
+  std::size_t add_step(std::string name, rt::Micros first_due, rt::Micros period);
+  // The next step of `step` ran at `now` (each firing is the next due time:
+  // the runner catches up on missed ones).
+  void step_ran(std::size_t step, rt::Micros now);
   // A camera frame published, or a tick dropped because the render thread was behind.
   void frame(CameraId camera, bool dropped);
 
@@ -42,6 +44,7 @@ class Timekeeping {
     std::string name;
     int64_t steps = 0, late = 0;
     rt::Micros max_late = 0;
+    rt::Micros max_late_at = 0;  // when that step was due, since start()
   };
   const std::vector<StepTotals>& steps() const { return total_; }
   struct FrameTotals {
@@ -51,9 +54,13 @@ class Timekeeping {
 
  private:
   rt::Micros late_after_;
+  struct Schedule {
+    rt::Micros next_due, period;
+  };
+  std::vector<Schedule> schedule_;
   std::vector<StepTotals> total_, window_;
   std::array<FrameTotals, kCameraCount> frames_total_{}, frames_window_{};
-  rt::Micros window_start_ = 0;
+  rt::Micros start_ = 0, window_start_ = 0;
 };
 
 }  // namespace harvest::sim

@@ -75,7 +75,8 @@ TEST(RenderWorker, ASlowRendererDropsTicksAndCountsThemWithoutHoldingUpTheLoop) 
   ASSERT_TRUE(w.submit(request(CameraId::kFixed, 100)));
   ASSERT_TRUE(gate.wait_entered(1));
   // The renderer is stuck on frame 100. The loop's ticks return at once: the
-  // fixed camera's are dropped, the hand camera's first one waits its turn.
+  // fixed camera's are dropped, the hand camera's first one waits its turn
+  // and its second is dropped.
   // (Were submit to wait for the renderer, this would never finish.)
   auto loop = std::async(std::launch::async, [&] {
     int accepted = 0;
@@ -100,7 +101,8 @@ TEST(RenderWorker, ASlowRendererDropsTicksAndCountsThemWithoutHoldingUpTheLoop) 
   EXPECT_EQ(frames[1].image.header.utime, 200);
   EXPECT_EQ(w.stats(CameraId::kFixed).rendered, 1);
   EXPECT_EQ(w.stats(CameraId::kHand).rendered, 1);
-  EXPECT_FALSE(readable(w.wake_fd(), 0));  // taken: nothing more to wake the loop for
+  EXPECT_TRUE(w.take().empty());  // all taken: nothing more to wake the loop for
+  EXPECT_FALSE(readable(w.wake_fd(), 0));
 
   // Rendered: the camera takes ticks again.
   EXPECT_TRUE(w.submit(request(CameraId::kFixed, 300)));
