@@ -5,10 +5,8 @@
 #include <cerrno>
 #include <cstring>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 
-#include "camera/image_codec.hpp"
 #include "can/bus_spec.hpp"
 #include "endeffector/transport.hpp"
 #include "geometry/transform_file.hpp"
@@ -17,15 +15,15 @@
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
-#include "sim/board.hpp"
 #include "sim/ports.hpp"
-#include "sim/splitmix.hpp"
-#include "sim/sticker.hpp"
 
 namespace harvest::sim {
 namespace {
 
 rt::Micros period(double hz) { return rt::from_seconds(1.0 / hz); }
+
+// How often what fell behind is logged while running.
+constexpr rt::Micros kReportInterval = 10 * rt::kSecond;
 
 const char* state_name(FruitState s) {
   switch (s) {
@@ -70,6 +68,8 @@ SimConfig SimConfig::from_config(const config::Node& n) {
   c.truth_rate_hz = n.get(k::truth_rate_hz);
   c.stop_when_done = n.get(k::stop_when_done);
   c.done_grace_s = n.get(k::done_grace_s);
+  c.render_thread = n.get(k::render_thread);
+  c.late_ms = n.get(k::late_ms);
   return c;
 }
 
@@ -78,7 +78,7 @@ std::vector<config::Section> SimConfig::schema() {
   const std::string where = "harvest-sim, config/sim/sim*.yaml (docs/simulator.md).";
   std::vector<config::Section> out{config::section("sim", where, k::scenario, k::run, k::seed, k::hardware, k::hand_eye,
                                                    k::physics_rate_hz, k::robot_state_rate_hz, k::truth_rate_hz,
-                                                   k::stop_when_done, k::done_grace_s)};
+                                                   k::stop_when_done, k::done_grace_s, k::render_thread, k::late_ms)};
   for (auto& s : DevicesConfig::schema("sim.devices", where)) out.push_back(std::move(s));
   return out;
 }
@@ -91,47 +91,8 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
       arm_(scenario_.arm, start_pose(scenario_.arm), config_.reported_hand_eye),
       gripper_(scenario_.gripper),
       ir_(scenario_.ir, scenario_.seed + 3),
-      fixed_renderer_(scenario_.fixed_camera.model, scenario_.fixed_camera.noise_std, scenario_.seed + 1),
-      hand_renderer_(scenario_.hand_camera.model, scenario_.hand_camera.noise_std, scenario_.seed + 2) {
-  fixed_renderer_.set_look(scenario_.look, scenario_.fixed_camera.rate_hz);
-  hand_renderer_.set_look(scenario_.look, scenario_.hand_camera.rate_hz);
-  for (const BoardSetup& b : scenario_.boards) {
-    const auto board = std::make_shared<const BoardPrimitive>(b.spec, b.pose);
-    fixed_renderer_.add_primitive(board);
-    hand_renderer_.add_primitive(board);
-  }
-  // Stickers face the fixed camera (the side of the fruit facing the aisle).
-  const Vec3 fixed_at = scenario_.fixed_camera_truth.position;
-  stickers_.resize(scene_.fruit().size());
-  for (std::size_t k = 0; k < scenario_.fruit.size(); ++k)
-    if (scenario_.fruit[k].sticker > 0.0)
-      stickers_[k] = std::make_shared<const StickerPrimitive>(scene_, k, scenario_.fruit[k].sticker, fixed_at,
-                                                              splitmix_hash(scenario_.seed) + k);
-  if (scenario_.zoom.enabled()) {
-    // Zoomed so the fruit looks as from the camera-in-hand at zoom.distance: the hand camera's true intrinsics
-    // with the focal length times the distance ratio.
-    geometry::CameraModel m = scenario_.hand_camera.model;
-    const double k = (zoom_aim() - fixed_at).norm() / scenario_.zoom.distance;
-    m.fx *= k;
-    m.fy *= k;
-    m.skew *= k;
-    m.dist.fill(0.0);  // a long focal length: no visible distortion
-    zoom_renderer_.emplace(m, scenario_.fixed_camera.noise_std, scenario_.seed + 4);
-    zoom_renderer_->set_look(scenario_.look, scenario_.zoom.rate_hz);
-  }
-  for (const auto& sticker : stickers_) {
-    if (!sticker) continue;
-    fixed_renderer_.add_primitive(sticker);
-    hand_renderer_.add_primitive(sticker);
-    if (zoom_renderer_) zoom_renderer_->add_primitive(sticker);
-  }
-  // What the fixed camera sees of each fruit before anything moves decides
-  // which fruit the run is scored on.
-  fixed_renderer_.render(scene_, scenario_.fixed_camera_truth);
-  const auto& vis = fixed_renderer_.visible_pixels();
-  const auto& sil = fixed_renderer_.silhouette_pixels();
-  for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
-    fixed_visible_fraction_.push_back(sil[i] > 0 ? static_cast<float>(vis[i]) / static_cast<float>(sil[i]) : 0.0f);
+      cameras_(scenario_, scene_),
+      timekeeping_(rt::from_seconds(config_.late_ms * 1e-3)) {
   for (const auto& f : scene_.fruit()) last_states_.push_back(f.state);
   // Devices mode: the scenario's start pose becomes the drives' joint start
   // configuration (inverse kinematics of the true arm at its true mounting).
@@ -155,8 +116,27 @@ Placement SimNode::hand_camera() const { return device_arm_ ? device_arm_->hand_
 
 double SimNode::sim_time() const { return rt::to_seconds(now() - start_); }
 
+SimNode::~SimNode() = default;
+
+void SimNode::every_on_time(const std::string& name, rt::Micros period, std::function<void()> step) {
+  const rt::Micros first = now() + period;
+  const std::size_t k = timekeeping_.add_step(name, first, period);
+  ctx().add_timer(first, period, [this, k, step = std::move(step)] {
+    timekeeping_.step_ran(k, now());
+    step();
+  });
+}
+
 void SimNode::on_attach() {
   start_ = now();
+  timekeeping_.start(start_);
+  worker_ = std::make_unique<RenderWorker>(
+      [this](const FrameRequest& r) {
+        if (render_delay_) render_delay_();
+        return cameras_.render(r);
+      },
+      config_.render_thread);
+  if (worker_->threaded()) ctx().watch_fd(worker_->wake_fd(), [this] { publish_frames(); });
   advertise(channels::kCameraFixed);
   advertise(channels::kCameraHand);
   advertise(kSimTruthChannel);
@@ -177,26 +157,27 @@ void SimNode::on_attach() {
       else
         count("gripper_commands_ignored");
     });
-    every(period(config_.robot_state_rate_hz), [this] { publish_robot_state(); });
-    every(period(scenario_.ir.rate_hz), [this] {
+    every_on_time("robot_state", period(config_.robot_state_rate_hz), [this] { publish_robot_state(); });
+    every_on_time("ir", period(scenario_.ir.rate_hz), [this] {
       publish_ir();
       publish_gripper_state();
     });
   }
   subscribe<harvest_status_t>(channels::kHarvestStatus, [this](const harvest_status_t& s) { on_harvest_status(s); });
 
-  every(period(config_.physics_rate_hz), [this] { physics_tick(); });
-  every(period(scenario_.fixed_camera.rate_hz), [this] { render_camera(true); });
-  every(period(scenario_.hand_camera.rate_hz), [this] { render_camera(false); });
-  if (zoom_renderer_) {
+  every_on_time("physics", period(config_.physics_rate_hz), [this] { physics_tick(); });
+  every(period(scenario_.fixed_camera.rate_hz), [this] { camera_tick(CameraId::kFixed); });
+  every(period(scenario_.hand_camera.rate_hz), [this] { camera_tick(CameraId::kHand); });
+  if (cameras_.has_zoom()) {
     advertise(channels::kCameraFixedZoom);
-    every(period(scenario_.zoom.rate_hz), [this] { render_zoom(); });
+    every(period(scenario_.zoom.rate_hz), [this] { camera_tick(CameraId::kZoom); });
   }
   every(period(config_.truth_rate_hz), [this] { publish_truth(); });
+  every(kReportInterval, [this] { report_timekeeping(); });
 
   int counted = 0;
   for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
-    counted += counts(scene_.fruit()[i], fixed_visible_fraction_[i]);
+    counted += counts(scene_.fruit()[i], cameras_.start_visible_fraction()[i]);
   spdlog::info("scenario '{}' run {} seed {}: {} fruit, {} reachable and at least half visible to the fixed camera",
                scenario_.name, config_.run, scenario_.seed, scene_.fruit().size(), counted);
   set_health(rt::Health::kOk);
@@ -216,7 +197,7 @@ void SimNode::attach_devices() {
   device_arm_ = std::make_unique<DeviceArm>(*bus_, d.model, d.drives, device_arm_start_,
                                             to_isometry(scenario_.arm.mounting), scenario_.arm.hand_eye);
   if (bus_->fd() >= 0) ctx().watch_fd(bus_->fd(), [this] { device_arm_->drain(now()); });
-  every(d.drive_step_us, [this] {
+  every_on_time("drives", d.drive_step_us, [this] {
     device_arm_->drain(now());
     device_arm_->advance(now());
   });
@@ -235,7 +216,7 @@ void SimNode::attach_devices() {
                              "free ones)");
   }
   ctx().watch_fd(board_server_->listen_fd(), [this] { board_server_->service(now()); });
-  every(d.board_service_us, [this] { board_server_->service(now()); });
+  every_on_time("board", d.board_service_us, [this] { board_server_->service(now()); });
 
   const Eigen::VectorXd q = device_arm_start_ * (180.0 / 3.14159265358979323846);
   std::string joints;
@@ -311,7 +292,8 @@ void SimNode::check_done() {
   bool open_left = false;
   for (std::size_t i = 0; i < scene_.fruit().size(); ++i) {
     const Fruit& f = scene_.fruit()[i];
-    if (counts(f, fixed_visible_fraction_[i]) && (f.state == FruitState::kOnTree || f.state == FruitState::kHeld))
+    if (counts(f, cameras_.start_visible_fraction()[i]) &&
+        (f.state == FruitState::kOnTree || f.state == FruitState::kHeld))
       open_left = true;
   }
   if (open_left) {
@@ -333,59 +315,54 @@ void SimNode::check_done() {
   ctx().request_stop(0);
 }
 
-image_t SimNode::make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width,
-                            int sensor_height) {
-  image_t img;
-  camera::encode_image(bgr, encoding == "jpeg", jpeg_quality, img);
-  // The frame shows the whole sensor, binned to the output size, as a camera
-  // driver with a smaller output resolution publishes it.
-  img.sensor_width = sensor_width > 0 ? sensor_width : bgr.cols;
-  img.sensor_height = sensor_height > 0 ? sensor_height : bgr.rows;
-  img.roi_px[0] = img.roi_px[1] = 0.0f;
-  img.roi_px[2] = static_cast<float>(img.sensor_width);
-  img.roi_px[3] = static_cast<float>(img.sensor_height);
-  return img;
-}
-
-void SimNode::render_camera(bool fixed) {
+void SimNode::camera_tick(CameraId camera) {
   const double t = sim_time();
   const auto& f = scenario_.faults;
-  if (fixed && f.camera_dropout_start_s >= 0 && t >= f.camera_dropout_start_s &&
+  if (camera == CameraId::kFixed && f.camera_dropout_start_s >= 0 && t >= f.camera_dropout_start_s &&
       t < f.camera_dropout_start_s + f.camera_dropout_duration_s) {
     count("fixed_frames_dropped");
     return;
   }
-  const CameraSetup& cam = fixed ? scenario_.fixed_camera : scenario_.hand_camera;
-  Renderer& r = fixed ? fixed_renderer_ : hand_renderer_;
-  const cv::Mat& bgr = r.render(scene_, fixed ? scenario_.fixed_camera_truth : hand_camera());
-  image_t img = make_image(bgr, cam.encoding, cam.jpeg_quality, cam.sensor_width, cam.sensor_height);
-  img.header.utime = now();
-  img.header.frame_id = fixed ? "camera_fixed" : "camera_hand";
-  img.header.source_seq = -1;
-  publish(fixed ? channels::kCameraFixed : channels::kCameraHand, img);
-}
-
-Vec3 SimNode::zoom_aim() const {
-  const auto k = static_cast<std::size_t>(scenario_.zoom.fruit);
-  if (stickers_[k]) return stickers_[k]->centre();
-  const Fruit& f = scene_.fruit()[k];
-  return f.position + f.radius * (scenario_.fixed_camera_truth.position - f.position).normalized();
-}
-
-void SimNode::render_zoom() {
   // A zoomed view of a fruit no longer on the tree shows nothing to servo to.
-  if (scene_.fruit()[static_cast<std::size_t>(scenario_.zoom.fruit)].state != FruitState::kOnTree) {
+  if (camera == CameraId::kZoom &&
+      scene_.fruit()[static_cast<std::size_t>(scenario_.zoom.fruit)].state != FruitState::kOnTree) {
     count("zoom_frames_skipped");
     return;
   }
-  const Vec3 from = scenario_.fixed_camera_truth.position;
-  const cv::Mat& bgr = zoom_renderer_->render(scene_, {look_at_rotation(from, zoom_aim()), from});
-  const CameraSetup& cam = scenario_.hand_camera;  // the zoomed image stands for the hand camera's desired view
-  image_t img = make_image(bgr, cam.encoding, cam.jpeg_quality, cam.sensor_width, cam.sensor_height);
-  img.header.utime = now();
-  img.header.frame_id = "camera_fixed_zoom";
-  img.header.source_seq = -1;
-  publish(channels::kCameraFixedZoom, img);
+  // The frame shows the world as it is now, whenever it is rendered.
+  FrameRequest request{camera, now(), scene_.fruit(), hand_camera()};
+  if (!worker_->submit(std::move(request))) {
+    count(std::string("render_dropped.") + camera_name(camera));
+    timekeeping_.frame(camera, true);
+    return;
+  }
+  if (!worker_->threaded()) publish_frames();
+}
+
+void SimNode::publish_frames() {
+  for (RenderWorker::Frame& f : worker_->take()) {
+    if (!f.error.empty()) {
+      count(std::string("render_errors.") + camera_name(f.camera));
+      int64_t suppressed = 0;
+      rt::Micros since = 0;
+      if (render_error_log_.admit(now(), suppressed, since))
+        spdlog::error("camera {}: rendering failed: {} ({} more not logged)", camera_name(f.camera), f.error,
+                      suppressed);
+      continue;
+    }
+    timekeeping_.frame(f.camera, false);
+    publish(cameras_.channel(f.camera), f.image);
+  }
+}
+
+void SimNode::report_timekeeping() {
+  for (const std::string& line : timekeeping_.report(now())) spdlog::warn("{}", line);
+}
+
+void SimNode::begin_shutdown() {
+  if (summary_logged_) return;
+  summary_logged_ = true;
+  spdlog::info("{}", timekeeping_.summary(now() - start_));
 }
 
 void SimNode::publish_truth() {
@@ -409,7 +386,7 @@ void SimNode::publish_truth() {
       ft.grasp_offset_base[k] = f.grasp_offset[k];
     }
     ft.diameter_m = 2.0 * f.radius;
-    ft.visible_fraction_fixed = fixed_visible_fraction_[i];
+    ft.visible_fraction_fixed = cameras_.start_visible_fraction()[i];
     ft.reachable = f.reachable;
     ft.grasp_attempts = f.grasp_attempts;
     ft.outcome_utime = f.outcome_utime;

@@ -12,6 +12,14 @@
 // kinematics of the drives' joint positions), the end-effector board is served
 // on its TCP port, and the field's harvest-robot-link and harvest-ee-bridge
 // publish ROBOT_STATE, IR_RANGE and GRIPPER_STATE (see sim/devices.hpp).
+//
+// Threads (render_thread): the loop owns the scene, the physics, the drives
+// and the board, and publishes everything; at each camera tick it hands a
+// snapshot to the render thread (sim/render_worker.hpp), which owns the
+// renderers, and publishes the frames it gets back. A camera still rendering
+// its previous frame drops the tick. How late the loop's steps run and how
+// many frames were dropped is logged while running and at the end
+// (sim/timekeeping.hpp).
 #pragma once
 
 #include <limits>
@@ -26,8 +34,9 @@
 #include "sim/cartesian_arm.hpp"
 #include "sim/devices.hpp"
 #include "sim/hand.hpp"
-#include "sim/renderer.hpp"
+#include "sim/render_worker.hpp"
 #include "sim/scene.hpp"
+#include "sim/timekeeping.hpp"
 
 namespace harvest::sim {
 
@@ -52,6 +61,11 @@ inline constexpr Key<double> truth_rate_hz{"truth_rate_hz", 20.0, {0.1, 100.0}, 
 inline constexpr Key<bool> stop_when_done{"stop_when_done", true, {}, "", "end the process when the run is over"};
 inline constexpr Key<double> done_grace_s{"done_grace_s", 2.0, {0.0, 600.0}, "s",
                                           "keep running this long after the last fruit is decided"};
+inline constexpr Key<bool> render_thread{"render_thread", true, {}, "",
+                                         "render the cameras on their own thread, so the physics and the drives keep "
+                                         "time (false: on the loop)"};
+inline constexpr Key<double> late_ms{"late_ms", 5.0, {0.1, 1000.0}, "ms",
+                                     "a physics, drive, board or state step this much behind its time counts as late"};
 }  // namespace sim_keys
 
 struct SimConfig {
@@ -69,6 +83,10 @@ struct SimConfig {
   double truth_rate_hz = sim_keys::truth_rate_hz.fallback;
   bool stop_when_done = sim_keys::stop_when_done.fallback;  // end the process when the run is over
   double done_grace_s = sim_keys::done_grace_s.fallback;    // after the last fruit is decided
+  // Live runs render on a thread of their own. Replays (logical time) must
+  // render on the loop, or frames would land at unrepeatable times.
+  bool render_thread = sim_keys::render_thread.fallback;
+  double late_ms = sim_keys::late_ms.fallback;
 
   static SimConfig from_config(const config::Node& node);
   static std::vector<config::Section> schema();
@@ -77,6 +95,7 @@ struct SimConfig {
 class SimNode final : public rt::Node {
  public:
   SimNode(SimConfig config, Scenario scenario);
+  ~SimNode() override;
 
   const Scene& scene() const { return scene_; }
   const Gripper& gripper() const { return gripper_; }
@@ -86,10 +105,12 @@ class SimNode final : public rt::Node {
   const Placement& tool() const;
   Placement hand_camera() const;
 
-  // Encodes a rendered BGR frame as the camera drivers publish it; the frame
-  // is the whole sensor of the given size (0: the frame's own size), binned.
-  static image_t make_image(const cv::Mat& bgr, const std::string& encoding, int jpeg_quality, int sensor_width = 0,
-                            int sensor_height = 0);
+  const Timekeeping& timekeeping() const { return timekeeping_; }
+  // Tests: runs on the render thread before each frame (a slow renderer).
+  void set_render_delay(std::function<void()> delay) { render_delay_ = std::move(delay); }
+
+  // Logs the run's timekeeping summary (once).
+  void begin_shutdown() override;
 
  protected:
   void on_attach() override;
@@ -97,11 +118,12 @@ class SimNode final : public rt::Node {
  private:
   double sim_time() const;  // [s] since the node started
   void physics_tick();
-  void render_camera(bool fixed);
-  void render_zoom();
-  // Teach by zooming's desired image: where the zoomed camera looks (sticker centre, or the peel facing the fixed
-  // camera).
-  Vec3 zoom_aim() const;
+  // A periodic step whose lateness is kept (timekeeping_).
+  void every_on_time(const std::string& name, rt::Micros period, std::function<void()> step);
+  // A camera tick: a snapshot for the render thread (or a frame rendered here).
+  void camera_tick(CameraId camera);
+  void publish_frames();
+  void report_timekeeping();
   void publish_truth();
   void publish_robot_state();
   void publish_ir();
@@ -124,10 +146,14 @@ class SimNode final : public rt::Node {
   bool drive_fault_injected_ = false, drive_silenced_ = false, board_silenced_ = false;
   Gripper gripper_;
   IrSensor ir_;
-  Renderer fixed_renderer_, hand_renderer_;
-  std::vector<std::shared_ptr<const class StickerPrimitive>> stickers_;  // per fruit, null without a sticker
-  std::optional<Renderer> zoom_renderer_;                                // scenario zoom: CAMERA_FIXED_ZOOM
-  std::vector<float> fixed_visible_fraction_;
+  // The renderers and their scene: the render thread's alone once the worker
+  // starts (the loop reads only what was fixed at construction).
+  SimCameras cameras_;
+  std::function<void()> render_delay_;
+  std::unique_ptr<RenderWorker> worker_;
+  Timekeeping timekeeping_;
+  bool summary_logged_ = false;
+  rt::LogLimiter render_error_log_{10 * rt::kSecond};
   std::optional<double> ir_range_;
   int ir_stuck_raw_ = -1;
   rt::Micros start_ = 0;

@@ -11,7 +11,7 @@
 #include "sim/renderer.hpp"
 #include "sim/scenario.hpp"
 #include "sim/scene.hpp"
-#include "sim/sim_node.hpp"
+#include "sim/cameras.hpp"
 
 namespace harvest::sim {
 namespace {
@@ -69,10 +69,10 @@ void BM_FramePair(benchmark::State& state) {
   hand.set_look(s.look, s.hand_camera.rate_hz);
   const Placement near = camera_pose(s, scene, 2), before = one_frame_earlier(near, s);
   for (auto _ : state) {
-    const image_t a = SimNode::make_image(fixed.render(scene, s.fixed_camera_truth), s.fixed_camera.encoding,
-                                          s.fixed_camera.jpeg_quality);
-    const image_t b = SimNode::make_image(hand.render(scene, near, before), s.hand_camera.encoding,
-                                          s.hand_camera.jpeg_quality);
+    const image_t a = SimCameras::make_image(fixed.render(scene, s.fixed_camera_truth), s.fixed_camera.encoding,
+                                             s.fixed_camera.jpeg_quality);
+    const image_t b = SimCameras::make_image(hand.render(scene, near, before), s.hand_camera.encoding,
+                                             s.hand_camera.jpeg_quality);
     benchmark::DoNotOptimize(a.data.data());
     benchmark::DoNotOptimize(b.data.data());
   }
@@ -86,7 +86,8 @@ void BM_RenderAndEncode(benchmark::State& state) {
   Renderer r(s.hand_camera.model, s.hand_camera.noise_std, 1);
   const Placement pose = camera_pose(s, scene, 2);
   for (auto _ : state) {
-    const image_t img = SimNode::make_image(r.render(scene, pose), s.hand_camera.encoding, s.hand_camera.jpeg_quality);
+    const image_t img =
+        SimCameras::make_image(r.render(scene, pose), s.hand_camera.encoding, s.hand_camera.jpeg_quality);
     benchmark::DoNotOptimize(img.data.data());
   }
   state.SetLabel(s.name + " hand@fruit + " + s.hand_camera.encoding);

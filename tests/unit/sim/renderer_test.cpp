@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
 
-#include "sim/sim_node.hpp"
+#include "sim/cameras.hpp"
 #include "test_scenes.hpp"
 
 namespace harvest::sim {
@@ -137,13 +137,13 @@ TEST(Renderer, PublishesImagesAsTheCameraDriverDoes) {
   const Scene scene(sc);
   Renderer r(sc.fixed_camera.model, 0.0, 1);
   const cv::Mat& img = r.render(scene, sc.fixed_camera_truth);
-  const image_t raw = SimNode::make_image(img, "bgr8", 90);
+  const image_t raw = SimCameras::make_image(img, "bgr8", 90);
   EXPECT_EQ(raw.encoding, +image_t::ENCODING_BGR8);
   EXPECT_EQ(raw.stride, 320 * 3);
   EXPECT_EQ(raw.size, 320 * 240 * 3);
   EXPECT_EQ(raw.sensor_width, 320);
   EXPECT_FLOAT_EQ(raw.roi_px[2], 320.0f);
-  const image_t jpeg = SimNode::make_image(img, "jpeg", 90);
+  const image_t jpeg = SimCameras::make_image(img, "jpeg", 90);
   EXPECT_EQ(jpeg.encoding, +image_t::ENCODING_JPEG);
   const cv::Mat decoded = cv::imdecode(jpeg.data, cv::IMREAD_COLOR);
   ASSERT_EQ(decoded.cols, 320);

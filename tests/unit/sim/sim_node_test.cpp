@@ -44,6 +44,7 @@ double last_truth_s(const std::vector<std::pair<double, std::string>>& statuses)
   o.tail = rt::from_seconds(40.0);
   SimConfig config;
   config.done_grace_s = 2.0;
+  config.render_thread = false;  // logical time: frames rendered on the loop
   SimNode node(config, nothing_to_pick());
   rt::ReplayRunner runner(o);
   runner.add(node);
@@ -94,6 +95,33 @@ TEST(SimNode, ASilentControllerIsNotWaitedFor) {
   const double end = last_truth_s({{0.5, "APPROACH"}, {1.0, "APPROACH"}});
   EXPECT_GE(end, 6.0);  // 5 s after it was last heard
   EXPECT_LT(end, 6.2);
+}
+
+// On logical time every step runs at its due time: nothing is late, and
+// every frame is rendered (on the loop).
+TEST(SimNode, KeepsPerfectTimeOnLogicalTime) {
+  harvest::testing::TempDir dir;
+  rt::write_log(dir / "in.lcm", {{kT0, "UNRELATED", std::vector<uint8_t>{0}}});
+  rt::ReplayOptions o;
+  o.input_log = dir / "in.lcm";
+  o.output_log = dir / "out.lcm";
+  o.tail = rt::from_seconds(3.0);
+  SimConfig config;
+  config.render_thread = false;
+  config.stop_when_done = false;
+  SimNode node(config, nothing_to_pick());
+  rt::ReplayRunner runner(o);
+  runner.add(node);
+  runner.run();
+  const auto& steps = node.timekeeping().steps();
+  ASSERT_EQ(steps.size(), 3u);  // robot_state, ir, physics
+  for (const auto& s : steps) {
+    EXPECT_GE(s.steps, 59) << s.name;  // 3 s at 20..100 Hz
+    EXPECT_EQ(s.late, 0) << s.name;
+    EXPECT_EQ(s.max_late, 0) << s.name;
+  }
+  EXPECT_EQ(node.timekeeping().frames(CameraId::kFixed).dropped, 0);
+  EXPECT_GE(node.timekeeping().frames(CameraId::kFixed).rendered, 89);  // 30 Hz
 }
 
 }  // namespace

@@ -112,6 +112,7 @@ std::vector<rt::LogRecord> run_sim(const Scenario& scenario, double seconds) {
   o.tail = rt::from_seconds(seconds);
   SimConfig config;
   config.stop_when_done = false;
+  config.render_thread = false;  // logical time: frames rendered on the loop
   SimNode node(config, scenario);
   rt::ReplayRunner runner(o);
   runner.add(node);
