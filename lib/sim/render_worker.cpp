@@ -1,5 +1,6 @@
 #include "sim/render_worker.hpp"
 
+#include <sched.h>
 #include <sys/eventfd.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -104,6 +105,10 @@ void RenderWorker::run() {
   // On a busy machine the CPU goes to the loop (drives, physics) first: a
   // late frame is dropped, a late drive faults the arm. Raising one's own
   // nice value needs no privilege; if it fails, frames just compete evenly.
+  // Never real-time, even when the loop that started it is (or the process
+  // was started under chrt): a frame may always wait.
+  const sched_param normal{};
+  sched_setscheduler(0, SCHED_OTHER, &normal);
   const auto tid = static_cast<id_t>(gettid());
   errno = 0;
   const int nice_now = getpriority(PRIO_PROCESS, tid);

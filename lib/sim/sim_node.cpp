@@ -15,6 +15,7 @@
 #include "harvest/ir_range_t.hpp"
 #include "harvest/sim_truth_t.hpp"
 #include "runtime/channels.hpp"
+#include "runtime/realtime.hpp"
 #include "sim/ports.hpp"
 
 namespace harvest::sim {
@@ -70,15 +71,16 @@ SimConfig SimConfig::from_config(const config::Node& n) {
   c.done_grace_s = n.get(k::done_grace_s);
   c.render_thread = n.get(k::render_thread);
   c.late_ms = n.get(k::late_ms);
+  c.realtime_priority = n.get(k::realtime_priority);
   return c;
 }
 
 std::vector<config::Section> SimConfig::schema() {
   namespace k = sim_keys;
   const std::string where = "harvest-sim, config/sim/sim*.yaml (docs/simulator.md).";
-  std::vector<config::Section> out{config::section("sim", where, k::scenario, k::run, k::seed, k::hardware, k::hand_eye,
-                                                   k::physics_rate_hz, k::robot_state_rate_hz, k::truth_rate_hz,
-                                                   k::stop_when_done, k::done_grace_s, k::render_thread, k::late_ms)};
+  std::vector<config::Section> out{config::section(
+      "sim", where, k::scenario, k::run, k::seed, k::hardware, k::hand_eye, k::physics_rate_hz, k::robot_state_rate_hz,
+      k::truth_rate_hz, k::stop_when_done, k::done_grace_s, k::render_thread, k::late_ms, k::realtime_priority)};
   for (auto& s : DevicesConfig::schema("sim.devices", where)) out.push_back(std::move(s));
   return out;
 }
@@ -136,7 +138,14 @@ void SimNode::on_attach() {
         return cameras_.render(r);
       },
       config_.render_thread);
-  if (worker_->threaded()) ctx().watch_fd(worker_->wake_fd(), [this] { publish_frames(); });
+  if (worker_->threaded()) {
+    ctx().watch_fd(worker_->wake_fd(), [this] { publish_frames(); });
+    // The drives stand in for hardware with its own processors: on a busy
+    // machine the loop keeps their deadlines ahead of everything at normal
+    // priority. The render thread, started above, stays at normal priority.
+    rt::request_realtime_priority(config_.realtime_priority,
+                                  "the simulated drives may miss their deadlines on a busy machine");
+  }
   advertise(channels::kCameraFixed);
   advertise(channels::kCameraHand);
   advertise(kSimTruthChannel);

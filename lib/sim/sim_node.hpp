@@ -66,6 +66,10 @@ inline constexpr Key<bool> render_thread{"render_thread", true, {}, "",
                                          "time (false: on the loop)"};
 inline constexpr Key<double> late_ms{"late_ms", 5.0, {0.1, 1000.0}, "ms",
                                      "a physics, drive, board or state step this much behind its time counts as late"};
+inline constexpr Key<int> realtime_priority{
+    "realtime_priority", 0, {0, 99}, "",
+    "SCHED_FIFO priority of the loop (drives, board, physics, ROBOT_STATE) when the cameras render on their own "
+    "thread, which stays at normal priority (0: normal; needs root or CAP_SYS_NICE, refused: a warning)"};
 }  // namespace sim_keys
 
 struct SimConfig {
@@ -87,6 +91,7 @@ struct SimConfig {
   // render on the loop, or frames would land at unrepeatable times.
   bool render_thread = sim_keys::render_thread.fallback;
   double late_ms = sim_keys::late_ms.fallback;
+  int realtime_priority = sim_keys::realtime_priority.fallback;  // the loop's SCHED_FIFO priority (render thread on)
 
   static SimConfig from_config(const config::Node& node);
   static std::vector<config::Section> schema();

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 #include <poll.h>
+#include <sched.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <future>
@@ -138,6 +140,30 @@ TEST(RenderWorker, AFailedRenderComesBackAsAnErrorAndFreesTheCamera) {
   ASSERT_EQ(frames.size(), 1u);
   EXPECT_EQ(frames[0].error, "out of rays");
   EXPECT_TRUE(w.submit(request(CameraId::kZoom, 2)));
+}
+
+// The loop may run at real-time priority (the simulator's realtime_priority);
+// the render thread never does, even when started from a real-time thread: a
+// frame may wait, a drive may not.
+TEST(RenderWorker, TheRenderThreadStaysAtNormalPriorityUnderARealTimeLoop) {
+  const int before = sched_getscheduler(0);
+  sched_param fifo{};
+  fifo.sched_priority = 1;
+  if (sched_setscheduler(0, SCHED_FIFO, &fifo) != 0) GTEST_SKIP() << "SCHED_FIFO not permitted here";
+  std::atomic<int> policy{-2};
+  {
+    RenderWorker w(
+        [&](const FrameRequest& r) {
+          policy = sched_getscheduler(0);
+          return stamped(r);
+        },
+        true);
+    ASSERT_TRUE(w.submit(request(CameraId::kFixed, 1)));
+    take_at_least(w, 1);
+  }
+  const sched_param normal{};
+  sched_setscheduler(0, before, &normal);
+  EXPECT_EQ(policy.load(), SCHED_OTHER);
 }
 
 // A frame shows the snapshot it was asked for, not the scene as the physics
