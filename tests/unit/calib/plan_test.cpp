@@ -18,7 +18,7 @@
 #include "runtime/sim_runner.hpp"
 #include "security/authority.hpp"
 #include "security/key.hpp"
-#include "sim/sim_node.hpp"
+#include "sim/cameras.hpp"
 
 namespace harvest::calib {
 namespace {
@@ -312,7 +312,7 @@ TEST(CalibrationNode, ViewsOfABinnedFrameAreInSensorPixels) {
     runner.start();
     cv::Mat bgr;
     cv::cvtColor(gray, bgr, cv::COLOR_GRAY2BGR);
-    image_t img = sim::SimNode::make_image(bgr, "bgr8", 0, sensor.width, sensor.height);  // as the simulator publishes
+    image_t img = sim::SimCameras::make_image(bgr, "bgr8", 0, sensor.width, sensor.height);  // as the simulator publishes
     img.header.utime = 1'000'000;
     runner.inject(channels::kCameraHand, img);
     node.finish();
