@@ -62,7 +62,10 @@ std::string unique_can_bus() {
   int n = 0, port = 0;
   for (int tries = 0; tries < 100; ++tries) {
     n = counter++;
-    port = 50000 + (pid * 7 + n * 13) % 10000;
+    // Above the ports unique_lcm_url() hands out (20000-59999): a test's LCM
+    // port and its bus port may never coincide (the simulator refuses a bus
+    // port another socket holds).
+    port = 61000 + (pid * 7 + n * 13) % 4000;
     if (udp_port_free(port)) break;
   }
   return "udp_multicast:239.74.166." + std::to_string(10 + (pid + n) % 200) + ":" + std::to_string(port) + "?ttl=0";

@@ -115,15 +115,11 @@ std::string joined(const std::vector<std::string>& v) {
   return s;
 }
 
-// Opt-in (HARVEST_TBZ_DEMO=1): in the full suite on two cores it failed 1 run
-// in 3 (the clean-clone run of 2026-12-04: TBZ arrived, grasped and detached,
-// then "robot state stale (watchdog)" from the direct-mode simulator, which
-// renders and publishes the arm from one loop: issue 21 item 7). Alone it
-// passes; it stays skipped by default until the simulator keeps time.
+// On by default again since the simulator renders on a thread of its own
+// and its loop runs at real-time priority (2026-12-04): before, it failed 1
+// full-suite run in 3 with "robot state stale (watchdog)" from the
+// direct-mode simulator, which rendered and published the arm from one loop.
 TEST(TbzDemo, TheStickeredFruitIsPickedThroughTeachByZooming) {
-  const char* opt_in = std::getenv("HARVEST_TBZ_DEMO");
-  if (opt_in == nullptr || std::string(opt_in) != "1")
-    GTEST_SKIP() << "HARVEST_TBZ_DEMO=1 to run (starved simulator under load, issue 21 item 7)";
   ht::TempDir dir;
   const DemoRun r = run_demo(dir.path(), "config/scenarios/tbz.yaml");
   EXPECT_EQ(r.code, 0) << r.output;
