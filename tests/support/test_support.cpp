@@ -164,6 +164,12 @@ std::string ChildProcess::output() const {
 
 std::string bin(const std::string& name) { return std::string(HARVEST_BIN_DIR) + "/" + name; }
 std::string bin_dir() { return HARVEST_BIN_DIR; }
+
+std::vector<std::string> realtime(std::vector<std::string> argv, int priority) {
+  static const bool allowed = std::system("chrt -f 1 true >/dev/null 2>&1") == 0;
+  if (allowed) argv.insert(argv.begin(), {"chrt", "-f", std::to_string(priority)});
+  return argv;
+}
 std::string test_bin(const std::string& name) { return std::string(HARVEST_TEST_BIN_DIR) + "/" + name; }
 std::string source_path(const std::string& relative) { return std::string(HARVEST_SOURCE_DIR) + "/" + relative; }
 

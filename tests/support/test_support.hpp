@@ -56,6 +56,12 @@ class ChildProcess {
   std::filesystem::path output_file_;
 };
 
+// `argv` run at SCHED_FIFO `priority` through chrt when this machine allows
+// it (root or CAP_SYS_NICE), else unchanged: a stand-in for hardware with a
+// processor of its own (the simulated drives) then keeps its deadlines beside
+// the real-time robot link, as the hardware does.
+std::vector<std::string> realtime(std::vector<std::string> argv, int priority);
+
 // Path of a built executable in build/bin.
 std::string bin(const std::string& name);
 // The folder of the harvest-* executables (build/bin).

@@ -226,8 +226,12 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
   SyncClock sync(bus);
   ht::ArmWatch watch(url);
   ASSERT_TRUE(watch.good());
-  ht::ChildProcess drives({ht::bin("harvest-sim-drives"), "--config", ht::source_path("config/arm/sim_drives.yaml"),
-                           "--set", "bus=" + bus, "--lcm-url", url, "--no-netcheck"},
+  // The drives are hardware: real-time beside the link, which handles the
+  // flood at its own real-time priority (config/arm/robot_link.yaml).
+  ht::ChildProcess drives(ht::realtime({ht::bin("harvest-sim-drives"), "--config",
+                                        ht::source_path("config/arm/sim_drives.yaml"), "--set", "bus=" + bus,
+                                        "--lcm-url", url, "--no-netcheck"},
+                                       70),
                           tmp / "sim-drives.log");
   // The drives' own deadlines relaxed as in ArmProcesses: on the loaded test
   // machine a process can be descheduled for longer than 25 ms with no flood.
