@@ -35,15 +35,17 @@ function(harvest_process name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} harvest_warnings)
 endfunction()
 
-# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS L] [RESOURCE_LOCK NAME]):
+# harvest_test(NAME SOURCES ... [DEPS ...] [LABELS L] [RESOURCE_LOCK NAME] [RUN_SERIAL]):
 # a GoogleTest binary registered with CTest. Tests run from the source root so
 # fixtures can be found as config/..., logs/... Tests holding the same
 # RESOURCE_LOCK never run at the same time under ctest -j. One label only:
 # gtest_discover_tests (CMake 3.25) writes a list-valued property unquoted,
 # and the properties after it (TIMEOUT, RESOURCE_LOCK) were lost. ctest -L
 # takes a regular expression: -L integration selects integration-realtime.
+# RUN_SERIAL: no other test runs beside it (a test that loads the machine on
+# purpose and needs to know how much).
 function(harvest_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "RUN_SERIAL" "TIMEOUT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
@@ -62,6 +64,9 @@ function(harvest_test name)
   set(lock "")
   if(ARG_RESOURCE_LOCK)
     set(lock RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
+  endif()
+  if(ARG_RUN_SERIAL)
+    list(APPEND lock RUN_SERIAL TRUE)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
