@@ -7,7 +7,8 @@ namespace harvest::rt {
 TimerId TimerQueue::add(Micros first_due, Micros period, std::function<void()> callback) {
   if (period < 0) throw std::invalid_argument("timer period must be >= 0");
   const TimerId id = next_id_++;
-  by_due_.emplace(std::make_pair(first_due, id), Entry{period, std::move(callback)});
+  by_due_.emplace(std::make_pair(first_due, id),
+                  Entry{period, std::make_shared<std::function<void()>>(std::move(callback))});
   due_of_[id] = first_due;
   return id;
 }
@@ -39,7 +40,7 @@ std::size_t TimerQueue::fire_due(Micros until, const std::function<void(Micros)>
       due_of_.erase(id);
     }
     set_time(due);
-    entry.callback();
+    (*entry.callback)();  // `entry` holds it alive even if the callback cancels its own timer
     ++fired;
   }
   return fired;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <utility>
 
@@ -29,7 +30,9 @@ class TimerQueue {
  private:
   struct Entry {
     Micros period;
-    std::function<void()> callback;
+    // Shared by the re-armed entry: one callback object for the timer's life
+    // (a copy per firing lost what a mutable callback kept, and allocated).
+    std::shared_ptr<std::function<void()>> callback;
   };
   // key: (due, id) gives a total, deterministic order.
   std::map<std::pair<Micros, TimerId>, Entry> by_due_;

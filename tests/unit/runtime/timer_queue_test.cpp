@@ -34,6 +34,17 @@ TEST(TimerQueue, CancelInsideCallback) {
   EXPECT_FALSE(q.next_due().has_value());
 }
 
+// One callback object for a periodic timer's life: what a mutable callback
+// keeps carries over from firing to firing (each firing ran a fresh copy of
+// the original before, so a count kept in the lambda never advanced).
+TEST(TimerQueue, APeriodicCallbackKeepsItsOwnStateAcrossFirings) {
+  TimerQueue q;
+  std::vector<int> seen;
+  q.add(10, 10, [&seen, count = 0]() mutable { seen.push_back(++count); });
+  q.fire_due(40, [](Micros) {});
+  EXPECT_EQ(seen, (std::vector<int>{1, 2, 3, 4}));
+}
+
 TEST(TimerQueue, RejectsNegativePeriod) {
   TimerQueue q;
   EXPECT_THROW(q.add(0, -1, [] {}), std::invalid_argument);
