@@ -6,23 +6,13 @@
 
 #include "calib/calibration_node.hpp"
 #include "calib/live_run.hpp"
+#include "calib/report.hpp"
 #include "calib/solvers.hpp"
 #include "geometry/transform_file.hpp"
 #include "runtime/channels.hpp"
 #include "security/authority.hpp"
 
 namespace harvest::calib {
-namespace {
-
-std::string describe(const Eigen::Isometry3d& t) {
-  const Eigen::Vector3d p = 1000.0 * t.translation();
-  const Eigen::AngleAxisd a(t.linear());
-  return fmt::format("({:7.1f}, {:7.1f}, {:7.1f}) mm, turned {:5.1f} deg about ({:5.2f}, {:5.2f}, {:5.2f})", p.x(),
-                     p.y(), p.z(), a.angle() * 180 / M_PI, a.axis().x(), a.axis().y(), a.axis().z());
-}
-
-}  // namespace
-
 int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
   const bool hand_eye = r.procedure == "hand-eye";
   try {
@@ -61,19 +51,19 @@ int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
     std::vector<Eigen::Isometry3d> poses;
     if (hand_eye) {
       const Eigen::Isometry3d board_in_base = tool * estimate * in_camera;
-      out << "board in the base frame: " << describe(board_in_base) << "\n";
+      out << pose_line("board in the base frame", board_in_base) << "\n";
       poses = plan_hand_eye(board_in_base, r.board, estimate, r.hand_eye);
     } else {
       // A mirrored view's pose is in the camera's proper twin.
       const Eigen::Isometry3d board_in_base = (view.mirrored ? proper_twin(estimate) : estimate) * in_camera;
       const Eigen::Isometry3d board_in_tool = tool.inverse() * board_in_base;
-      out << "board on the tool: " << describe(board_in_tool) << "\n";
+      out << pose_line("board on the tool", board_in_tool) << "\n";
       poses = plan_extrinsics(estimate, r.board, board_in_tool, r.extrinsics);
     }
     check_rotation_diversity(poses, PoseOptions{});
-    out << "tool now:    " << describe(tool) << "\n";
+    out << pose_line("tool now", tool) << "\n";
     for (std::size_t k = 0; k < poses.size(); ++k)
-      out << fmt::format("pose {:2d}:    ", k + 1) << describe(poses[k]) << "\n";
+      out << pose_line(fmt::format("pose {:2d}", k + 1), poses[k]) << "\n";
     if (!r.move) {
       out << "not moving (give --run to move the arm through these poses while recording)\n";
       return 0;

@@ -43,16 +43,6 @@ std::string view_range(const std::vector<ViewResult>& views) {
   return fixed(lo, 3) + ".." + fixed(hi, 3) + " px";
 }
 
-std::string pose_line(const std::string& name, const Eigen::Isometry3d& t) {
-  const Eigen::Vector3d p = t.translation() * 1000.0;
-  Eigen::Matrix3d r = t.linear();
-  if (r.determinant() < 0) r.col(0) = -r.col(0);  // an improper frame: its proper twin's angle
-  const Eigen::AngleAxisd aa(r);
-  return name + ": translation " + fixed(p.x(), 2) + ", " + fixed(p.y(), 2) + ", " + fixed(p.z(), 2) +
-         " mm, rotation " + fixed(aa.angle() / kDeg, 3) + " deg about " + fixed(aa.axis().x(), 4) + ", " +
-         fixed(aa.axis().y(), 4) + ", " + fixed(aa.axis().z(), 4);
-}
-
 std::string worst_view(const std::vector<ViewResult>& views) {
   double pos = 0.0, rot = 0.0;
   for (const auto& v : views) {
@@ -63,6 +53,16 @@ std::string worst_view(const std::vector<ViewResult>& views) {
 }
 
 }  // namespace
+
+std::string pose_line(const std::string& name, const Eigen::Isometry3d& t) {
+  const Eigen::Vector3d p = t.translation() * 1000.0;
+  Eigen::Matrix3d r = t.linear();
+  if (r.determinant() < 0) r.col(0) = -r.col(0);  // an improper frame: its proper twin's angle
+  const Eigen::AngleAxisd aa(r);
+  return name + ": translation " + fixed(p.x(), 2) + ", " + fixed(p.y(), 2) + ", " + fixed(p.z(), 2) +
+         " mm, rotation " + fixed(aa.angle() / kDeg, 3) + " deg about " + fixed(aa.axis().x(), 4) + ", " +
+         fixed(aa.axis().y(), 4) + ", " + fixed(aa.axis().z(), 4);
+}
 
 std::string camera_yaml(const geometry::CameraModel& m, const std::string& comment) {
   std::ostringstream out;

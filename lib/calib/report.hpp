@@ -18,6 +18,9 @@ std::string camera_yaml(const geometry::CameraModel& model, const std::string& c
 
 // "2026-12-04 05:01:02 UTC" for a time in microseconds since the epoch.
 std::string utc_date(int64_t utime);
+// "NAME: translation x, y, z mm, rotation A deg about ax, ay, az" (an
+// improper frame: its proper twin's rotation).
+std::string pose_line(const std::string& name, const Eigen::Isometry3d& t);
 
 // Comment blocks (no leading "# ") describing a result.
 std::string intrinsics_comment(const IntrinsicsResult& r);
