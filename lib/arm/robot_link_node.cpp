@@ -280,6 +280,21 @@ Eigen::VectorXd RobotLinkNode::shut_down(bool enabled, double dt) {
   return cmd;
 }
 
+void RobotLinkNode::log_own_stalls(Micros t) {
+  const rt::AwakeClock& awake = hardware_.master().awake();
+  if (awake.stalls() == stalls_seen_) return;
+  stalls_seen_ = awake.stalls();
+  count("own_stalls");
+  int64_t unlogged = 0;
+  Micros since = 0;
+  if (!stall_log_.admit(t, unlogged, since)) return;
+  // Not a fault of the drives: they see our silence past their RPDO deadline and stop the arm themselves.
+  spdlog::warn("robot link loop stalled ({} in all, longest {} ms beyond can.own_stall_ms, {} ms in all): not "
+               "counted against the drives; the drives stop the arm after can.drive_rpdo_timeout_ms ({} ms)",
+               stalls_seen_, awake.longest_lost_us() / 1000, awake.lost_us() / 1000,
+               config_.can.drive_rpdo_timeout_ms);
+}
+
 void RobotLinkNode::tick() {
   const Micros t = now();
   const double dt = rt::to_seconds(config_.can.sync_period);
@@ -300,6 +315,7 @@ void RobotLinkNode::tick() {
   if (!limited_now_ && !refused_) limit_text_.clear();
   hardware_.write(cmd, t);
   last_cmd_ = cmd;
+  log_own_stalls(t);
   // After the SYNC, so a slice of pose-goal IK never delays it.
   if (std::holds_alternative<PlanningMotion>(motion_) && supervisor_.may_move() && !shutting_down_) continue_planning();
 

@@ -43,6 +43,7 @@ class RobotLinkNode final : public rt::Node {
 
  private:
   void tick();
+  void log_own_stalls(Micros t);
   void on_command(const harvest::robot_command_t& cmd);
   void on_estop(const harvest::emergency_stop_t& msg);
   void on_operator(const harvest::operator_command_t& msg);
@@ -83,6 +84,9 @@ class RobotLinkNode final : public rt::Node {
   // and refusals of a stray publisher's commands, are logged at most once a
   // second, with how many events the line stands for, not 50 times a second.
   rt::LogLimiter limit_log_;
+  // The link's own stalls (its loop not run for longer than can.own_stall_ms), at most a line every 10 s.
+  rt::LogLimiter stall_log_{10 * rt::kSecond};
+  int64_t stalls_seen_ = 0;
   Micros enable_started_ = 0;
   bool enable_timed_out_ = false;
   bool shutting_down_ = false;

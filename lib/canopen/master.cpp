@@ -33,6 +33,9 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
   c.pdo_timeout = node.get(k::pdo_timeout_ms) * 1000;
   c.sdo_timeout = node.get(k::sdo_timeout_ms) * 1000;
   c.boot_timeout = node.get(k::boot_timeout_ms) * 1000;
+  c.own_stall = node.get(k::own_stall_ms) * 1000;
+  if (c.own_stall > 0 && c.own_stall < c.sync_period)
+    node.fail("own_stall_ms", "0 (off) or at least the SYNC period (" + std::to_string(c.sync_period / 1000) + " ms)");
   if (c.heartbeat_timeout <= Micros{c.heartbeat_ms} * 1000)
     node.fail("heartbeat_timeout_ms", "a value greater than heartbeat_ms");
   c.master_node = static_cast<uint8_t>(node.get(k::master_node_id));
@@ -76,7 +79,7 @@ MasterConfig MasterConfig::from_config(const config::Node& node) {
 std::vector<config::Section> MasterConfig::schema(const std::string& path, const std::string& where) {
   namespace k = master_keys;
   return {config::section(path, where, k::sync_rate_hz, k::heartbeat_ms, k::heartbeat_timeout_ms, k::pdo_timeout_ms,
-                          k::sdo_timeout_ms, k::boot_timeout_ms, k::master_node_id, k::master_heartbeat_ms,
+                          k::sdo_timeout_ms, k::boot_timeout_ms, k::own_stall_ms, k::master_node_id, k::master_heartbeat_ms,
                           k::drive_heartbeat_timeout_ms, k::drive_rpdo_timeout_ms, k::drive_communication_error,
                           k::drives_file),
           config::section(path + ".drives[]",
@@ -88,6 +91,7 @@ std::vector<config::Section> MasterConfig::schema(const std::string& path, const
 Master::Master(can::CanBus& bus, MasterConfig config)
     : bus_(bus),
       config_(std::move(config)),
+      awake_(config_.own_stall),
       sdo_([this](const CanFrame& f) { send(f); }, config_.sdo_timeout),
       drives_(config_.drives.size()),
       heartbeat_armed_(config_.drives.size(), false),
@@ -103,7 +107,8 @@ void Master::send(const CanFrame& f) {
   }
 }
 
-void Master::start(Micros now) {
+void Master::start(Micros wall) {
+  const Micros now = awake_.at(wall);
   now_ = now;
   phase_ = MasterPhase::kConfiguring;
   started_ = now;
@@ -197,11 +202,14 @@ int Master::index_of_node(uint8_t node) const {
   return -1;
 }
 
-void Master::drain(Micros now) {
-  while (auto f = bus_.receive()) handle_frame(*f, now);
+void Master::drain(Micros wall) {
+  const Micros now = awake_.at(wall);
+  while (auto f = bus_.receive()) handle(*f, now);
 }
 
-void Master::handle_frame(const CanFrame& f, Micros now) {
+void Master::handle_frame(const CanFrame& f, Micros wall) { handle(f, awake_.at(wall)); }
+
+void Master::handle(const CanFrame& f, Micros now) {
   now_ = now;
   if (f.error || f.extended) return;  // bus errors surface through bus state and missing traffic
   if (sdo_.on_frame(f, now)) return;
@@ -370,7 +378,9 @@ void Master::latch_bus(const std::string& text) {
   events_.push_back(text);
 }
 
-void Master::check_timeouts(Micros now) {
+void Master::check_timeouts(Micros wall) { supervise(awake_.at(wall)); }
+
+void Master::supervise(Micros now) {
   for (std::size_t i = 0; i < drives_.size(); ++i) {
     DriveStatus& d = drives_[i];
     if (heartbeat_armed_[i] && now - d.last_heartbeat > config_.heartbeat_timeout)
@@ -384,10 +394,15 @@ void Master::check_timeouts(Micros now) {
   }
 }
 
-void Master::sync(Micros now) {
+void Master::sync(Micros wall) {
+  const Micros now = awake_.at(wall);
+  if (awake_.stalls() > 0) {
+    counters_["can_own_stalls"] = awake_.stalls();
+    counters_["can_own_stall_max_ms"] = awake_.longest_lost_us() / 1000;
+  }
   now_ = now;
   sdo_.poll(now);
-  check_timeouts(now);
+  supervise(now);
   // Our own heartbeat, which every drive consumes (0x1016): it goes from the
   // start on, so a drive configured early does not time out while the others are.
   if (now >= next_heartbeat_ && phase_ != MasterPhase::kIdle) {

@@ -20,6 +20,7 @@
 #include "canopen/sdo_client.hpp"
 #include "config/config.hpp"
 #include "config/schema.hpp"
+#include "runtime/awake_clock.hpp"
 
 namespace harvest::canopen {
 
@@ -80,6 +81,10 @@ inline constexpr config::Choice drive_communication_error{
     "operational",
     {"pre_operational", "operational", "stopped", "leave"},
     "NMT state a drive goes to on a communication error (0x1029:01; leave: not written)"};
+inline constexpr Key<int> own_stall_ms{
+    "own_stall_ms", 30, {0, 1000}, "ms",
+    "a gap longer than this between two turns of the link's loop is the link's own stall (a frozen host): only this "
+    "much of it counts against the drives' heartbeat and PDO timeouts (0 = off; docs/can.md \"Own stalls\")"};
 inline constexpr Key<config::Path> drives_file{
     "drives_file", "", {}, "", "file with the drive list (`drives`); absent: the list is `drives` here"};
 }  // namespace master_keys
@@ -92,6 +97,7 @@ struct MasterConfig {
   Micros pdo_timeout = master_keys::pdo_timeout_ms.fallback * 1000;  // running drive sent no TPDO this long
   Micros sdo_timeout = master_keys::sdo_timeout_ms.fallback * 1000;
   Micros boot_timeout = master_keys::boot_timeout_ms.fallback * 1000;
+  Micros own_stall = master_keys::own_stall_ms.fallback * 1000;  // 0: every gap counts against the drives
   // The master's own heartbeat (0x700 + master_node), which every drive
   // consumes, and the drives' own protection (docs/can.md).
   uint8_t master_node = master_keys::master_node_id.fallback;
@@ -183,6 +189,8 @@ class Master {
   // Every foreign frame, drive leaving operational, state change without a
   // command and drive restart since construction (for the heartbeat counters).
   const std::map<std::string, int64_t>& counters() const { return counters_; }
+  // The link's own stalls, which its watchdogs did not count against the drives.
+  const rt::AwakeClock& awake() const { return awake_; }
 
  private:
   void start_drive(std::size_t drive, Micros now);
@@ -196,9 +204,13 @@ class Master {
   void on_foreign(const CanFrame& f);
   int index_of_node(uint8_t node) const;
   void send(const CanFrame& f);
+  // The public entry points take wall time and work in awake time (rt::AwakeClock) from there on.
+  void handle(const CanFrame& f, Micros now);
+  void supervise(Micros now);
 
   can::CanBus& bus_;
   MasterConfig config_;
+  rt::AwakeClock awake_;
   SdoClient sdo_;
   std::vector<DriveStatus> drives_;
   std::vector<bool> heartbeat_armed_;  // per drive: configured, so its heartbeat is supervised

@@ -20,7 +20,7 @@ uint32_t u32(const std::vector<uint8_t>& v) {
 }  // namespace
 
 SimDrive::SimDrive(SimDriveConfig config, std::function<void(const CanFrame&)> sink)
-    : config_(config), send_(std::move(sink)), position_(config.initial_position) {
+    : config_(config), send_(std::move(sink)), position_(config.initial_position), awake_(config.own_stall_us) {
   build_dictionary();
 }
 
@@ -193,7 +193,7 @@ void SimDrive::handle_frame(const CanFrame& f, Micros now) {
   // as most drives do.
   const uint32_t consumer = od_.get(od::kHeartbeatConsumer, 1);
   if ((consumer & 0xFFFF) != 0 && f.id == cob::kHeartbeat + ((consumer >> 16) & 0x7F) && f.dlc >= 1) {
-    master_heartbeat_ = now;
+    master_heartbeat_ = awake_.at(now);
     master_heartbeat_lost_ = false;
     return;
   }
@@ -209,7 +209,7 @@ void SimDrive::handle_frame(const CanFrame& f, Micros now) {
     if (!(cob_id & 0x80000000u) && (cob_id & 0x7FF) == f.id) {
       pending_rpdo_.push_back(f);
       if (n == 0) {
-        last_rpdo_ = now;
+        last_rpdo_ = awake_.at(now);
         rpdo_late_ = false;
       }
     }
@@ -236,7 +236,7 @@ void SimDrive::apply_rpdo(const CanFrame& f) {
 
 void SimDrive::on_sync(Micros now) {
   advance(now);
-  last_sync_ = now;
+  last_sync_ = awake_.at(now);
   for (const auto& f : pending_rpdo_) apply_rpdo(f);
   pending_rpdo_.clear();
   if (nmt_ == NmtState::kOperational) {
@@ -308,18 +308,21 @@ void SimDrive::advance(Micros now) {
   }
   // The master's heartbeat (0x1016) and the RPDO deadline (0x1400:05), each
   // reported once per loss (re-armed by the next heartbeat or RPDO).
+  const Micros awake = awake_.at(now);
   const Micros consumer_time = Micros{od_.get(od::kHeartbeatConsumer, 1) & 0xFFFF} * 1000;
-  if (consumer_time > 0 && master_heartbeat_ >= 0 && !master_heartbeat_lost_ && now - master_heartbeat_ > consumer_time) {
+  if (consumer_time > 0 && master_heartbeat_ >= 0 && !master_heartbeat_lost_ &&
+      awake - master_heartbeat_ > consumer_time) {
     master_heartbeat_lost_ = true;
     communication_error(0x8130);
   }
   const Micros deadline = Micros{od_.get(od::kRpdoComm, 5)} * 1000;
-  if (deadline > 0 && last_rpdo_ >= 0 && !rpdo_late_ && nmt_ == NmtState::kOperational && now - last_rpdo_ > deadline) {
+  if (deadline > 0 && last_rpdo_ >= 0 && !rpdo_late_ && nmt_ == NmtState::kOperational &&
+      awake - last_rpdo_ > deadline) {
     rpdo_late_ = true;
     communication_error(0x8250);
   }
   if (config_.sync_timeout_us > 0 && state_ == Cia402State::kOperationEnabled && last_sync_ >= 0 &&
-      now - last_sync_ > config_.sync_timeout_us)
+      awake - last_sync_ > config_.sync_timeout_us)
     inject_fault(0x8100);  // communication: the master is gone (or the cable is cut)
   const Micros period = Micros{od_.get(od::kHeartbeatProducer, 0)} * 1000;
   if (period > 0 && now >= next_heartbeat_) {

@@ -19,6 +19,7 @@
 #include "canopen/cia402.hpp"
 #include "canopen/protocol.hpp"
 #include "canopen/sdo_server.hpp"
+#include "runtime/awake_clock.hpp"
 
 namespace harvest::simdrive {
 
@@ -39,6 +40,12 @@ struct SimDriveConfig {
   // 0x8100. 0 = off (the default, so embedders keep the old behaviour;
   // harvest-sim-drives sets it from sync_timeout_ms).
   Micros sync_timeout_us = 0;
+  // The drive is real hardware that never stops; the simulator's host may
+  // (a frozen virtual machine stops the drives and the master alike). A gap
+  // longer than this between two calls counts only this much against the
+  // deadlines below (rt::AwakeClock); the joint still moves through all of
+  // it. 0 = off (the default; harvest-sim-drives sets it from own_stall_ms).
+  Micros own_stall_us = 0;
   // The standard protection a master configures by SDO (docs/can.md), as a
   // drive implements it: heartbeat consumer 0x1016 (EMCY 0x8130 on a lost
   // heartbeat), RPDO deadline 0x1400:05 (EMCY 0x8250), each a communication
@@ -96,6 +103,7 @@ class SimDrive {
   uint16_t last_controlword_ = 0;
   std::vector<can::CanFrame> pending_rpdo_;  // synchronous RPDOs act at the next SYNC
   double position_ = 0.0, velocity_ = 0.0, target_velocity_ = 0.0;
+  rt::AwakeClock awake_;   // the deadlines below are in its time, the motion in wall time
   Micros last_advance_ = -1;
   Micros last_sync_ = -1;
   Micros next_heartbeat_ = 0;

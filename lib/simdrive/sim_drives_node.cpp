@@ -40,7 +40,12 @@ SimDrivesConfig SimDrivesConfig::from_config(const config::Node& root) {
   drives_doc.check_unused();
   c.step_us = root.get(k::step_ms) * 1000;
   const Micros sync_timeout = root.get(k::sync_timeout_ms) * 1000;
-  for (auto& d : c.drives) d.sync_timeout_us = sync_timeout;
+  const Micros own_stall = root.get(k::own_stall_ms) * 1000;
+  if (own_stall > 0 && own_stall < c.step_us) root.fail("own_stall_ms", "0 (off) or at least step_ms");
+  for (auto& d : c.drives) {
+    d.sync_timeout_us = sync_timeout;
+    d.own_stall_us = own_stall;
+  }
   return c;
 }
 
@@ -48,7 +53,7 @@ std::vector<config::Section> SimDrivesConfig::schema() {
   namespace k = sim_drives_keys;
   return {config::section("sim_drives", "harvest-sim-drives, config/arm/sim_drives.yaml (docs/robot-link.md).",
                           canopen::kBusKey, k::arm_model, k::drives_file, k::acceleration_margin,
-                          k::quick_stop_deceleration_factor, k::step_ms, k::sync_timeout_ms)};
+                          k::quick_stop_deceleration_factor, k::step_ms, k::sync_timeout_ms, k::own_stall_ms)};
 }
 
 SimDrivesNode::SimDrivesNode(SimDrivesConfig config) : rt::Node("sim_drives"), config_(std::move(config)) {}

@@ -42,6 +42,10 @@ inline constexpr Key<double> quick_stop_deceleration_factor{
 inline constexpr Key<int> step_ms{"step_ms", 1, {1, 100}, "ms", "simulation step"};
 inline constexpr Key<int> sync_timeout_ms{"sync_timeout_ms", 500, {0, 10000}, "ms",
                                           "vendor watchdog: an enabled drive without SYNC this long faults (0: off)"};
+inline constexpr Key<int> own_stall_ms{
+    "own_stall_ms", 10, {0, 1000}, "ms",
+    "a gap longer than this between two steps of the drives is this host's stall, not the master's silence (real "
+    "drives keep running): only this much of it counts against the heartbeat, RPDO and SYNC deadlines (0 = off)"};
 }  // namespace sim_drives_keys
 
 struct SimDrivesConfig {

@@ -77,10 +77,6 @@ class ConsoleBrowser(unittest.TestCase):
             p["cwd"] = SRC
             if p["name"] == "sim":
                 p["args"] += ["--set", "scenario=" + scenario_path]
-            if p["name"] == "robot-link":
-                # As the other process tests on this shared machine: a loop stalled 25 ms (Chromium and a
-                # parallel test on 2 cores) would stop the arm mid-pick.
-                p["args"] += ["--set", "can.drive_rpdo_timeout_ms=200", "--set", "can.drive_heartbeat_timeout_ms=300"]
         set_path = os.path.join(ART, "set.yaml")
         with open(set_path, "w") as f:
             yaml.safe_dump(process_set, f)

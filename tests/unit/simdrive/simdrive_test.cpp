@@ -57,6 +57,16 @@ class MasterWithDrives : public ::testing::Test {
       drives_->drain(now_);
     }
   }
+  // The whole host freezes (a virtual machine's CPU quota; up to ~104 ms seen on the test machine): neither the
+  // master nor the drives run for `seconds`, and no frame crosses the bus.
+  void freeze(double seconds) { now_ += static_cast<canopen::Micros>(seconds * 1e6); }
+  // Drives with these settings in place of the fixture's.
+  void remake_drives(const std::function<void(SimDriveConfig&)>& tweak) {
+    std::vector<SimDriveConfig> dc;
+    for (std::size_t i = 0; i < drives_->size(); ++i) dc.push_back(drives_->drive(i).config());
+    for (auto& c : dc) tweak(c);
+    drives_ = std::make_unique<SimDriveSet>(drive_bus_, dc);
+  }
   // A master with these settings in place of the default one.
   void remake_master(const std::function<void(canopen::MasterConfig&)>& tweak) {
     tweak(config_);
@@ -300,6 +310,51 @@ TEST_F(MasterWithDrives, AtTheCia301DefaultAStallFreezesTheMastersReading) {
   EXPECT_EQ(drives_->drive(0).nmt_state(), canopen::NmtState::kPreOperational);
   EXPECT_GT(std::abs(master_->drives()[0].velocity), 0.05) << "the last TPDO before pre-operational";
   EXPECT_TRUE(master_->drives()[0].pdo_lost);
+}
+
+// The whole host freezes 150 ms while the arm moves: the simulated drives and
+// the link stop together, and on waking each would find the other silent past
+// its deadline (PDO 100 ms, RPDO 25 ms). Neither is: the time a process itself
+// did not run counts only up to its own_stall against the other
+// (rt::AwakeClock). With own_stall off on both ends the same freeze faults both.
+TEST_F(MasterWithDrives, AFrozenHostIsNotADriveFaultOnEitherEnd) {
+  for (const bool aware : {true, false}) {
+    SCOPED_TRACE(aware ? "own stalls discounted" : "own stalls off");
+    remake_master([&](canopen::MasterConfig& c) { c.own_stall = aware ? 30'000 : 0; });
+    remake_drives([&](SimDriveConfig& c) { c.own_stall_us = aware ? 10'000 : 0; });
+    start_and_enable();
+    master_->set_velocities({0.5, -0.5});
+    run(0.3);
+    emcy_heard(1);
+    freeze(0.15);
+    run(0.5);
+    if (aware) {
+      EXPECT_FALSE(master_->any_fault()) << master_->drives()[0].fault_text;
+      EXPECT_TRUE(emcy_heard(1).empty());
+      EXPECT_EQ(drives_->drive(0).state(), canopen::Cia402State::kOperationEnabled);
+      EXPECT_NEAR(drives_->drive(0).velocity(), 0.5, 1e-9) << "still following the master";
+      EXPECT_EQ(master_->awake().stalls(), 1);
+      EXPECT_EQ(master_->awake().lost_us(), 150'000 + 1000 - 30'000);  // the first step after it was 151 ms
+      EXPECT_EQ(master_->counters().at("can_own_stalls"), 1);
+    } else {
+      EXPECT_TRUE(master_->drives()[0].pdo_lost);
+      EXPECT_EQ(emcy_heard(1), (std::vector<uint16_t>{0x8130, 0x8250})) << "heartbeat and RPDO deadlines";
+    }
+  }
+}
+
+// A drive that falls silent while the master runs is still lost after the
+// PDO timeout with own stalls discounted (the default): only gaps of the
+// master's own loop are discounted, not the drive's.
+TEST_F(MasterWithDrives, ASilentDriveIsLostAfterThePdoTimeoutDespiteOwnStallDiscount) {
+  ASSERT_EQ(config_.own_stall, 30'000) << "the default";
+  start_and_enable();
+  drives_->drive(0).set_silent(true);
+  run(0.1);
+  EXPECT_FALSE(master_->drives()[0].pdo_lost);
+  run(0.02);
+  EXPECT_TRUE(master_->drives()[0].pdo_lost);
+  EXPECT_EQ(master_->awake().stalls(), 0);
 }
 
 // Without an RPDO deadline (a drive that has none), the consumed heartbeat
