@@ -137,6 +137,10 @@ int calibrate_main(int argc, const char* const* argv, std::ostream& out, std::os
       ->capture_default_str();
   pl->add_option("--extrinsic", plan.extrinsic_file, "extrinsics: the current fixed-camera estimate")
       ->capture_default_str();
+  pl->add_option("--robot-link-config", plan.robot_link_file,
+                 "the robot link's configuration: a pose it would refuse is replaced by a reachable variant before "
+                 "moving ('' : no check)")
+      ->capture_default_str();
   pl->add_option("--poses", plan.hand_eye.poses, "hand-eye: poses on the ring about the board")
       ->check(CLI::Range(6, 60))
       ->capture_default_str();

@@ -52,6 +52,8 @@ void CalibrationNode::on_image(const image_t& msg) {
 void CalibrationNode::on_state(const robot_state_t& msg) {
   const int64_t t = msg.header.utime;
   poses_.add(t, geometry::to_isometry(msg.tool_pose));
+  if (t >= last_state_utime_)
+    last_joints_ = Eigen::Map<const Eigen::VectorXd>(msg.joint_position.data(), msg.num_joints);
   const auto& v = msg.tool_twist;
   const double speed = Eigen::Vector3d(v.linear[0], v.linear[1], v.linear[2]).norm();
   const double rate = Eigen::Vector3d(v.angular[0], v.angular[1], v.angular[2]).norm();

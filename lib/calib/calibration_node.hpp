@@ -41,6 +41,8 @@ class CalibrationNode : public rt::Node {
   const cv::Ptr<cv::aruco::CharucoBoard>& board() const { return board_; }
   // utime of the last frame received (0: none): the date of a replayed calibration.
   int64_t last_frame_utime() const { return last_frame_utime_; }
+  // The joints on the last ROBOT_STATE (empty: none yet): where the arm is, for planning its moves.
+  const Eigen::VectorXd& last_joints() const { return last_joints_; }
   // Called for every frame decided (progress output).
   std::function<void(const BoardView&, Verdict)> on_view;
 
@@ -69,6 +71,7 @@ class CalibrationNode : public rt::Node {
   };
   std::deque<Motion> motion_;
   int64_t last_state_utime_ = -1;
+  Eigen::VectorXd last_joints_;
   std::deque<Frame> pending_;
   int64_t last_frame_utime_ = 0;
 };

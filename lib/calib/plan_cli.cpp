@@ -4,7 +4,9 @@
 
 #include <iostream>
 
+#include "arm/robot_link_config.hpp"
 #include "calib/calibration_node.hpp"
+#include "calib/link_reach.hpp"
 #include "calib/live_run.hpp"
 #include "calib/report.hpp"
 #include "calib/solvers.hpp"
@@ -13,6 +15,45 @@
 #include "security/authority.hpp"
 
 namespace harvest::calib {
+namespace {
+
+// The plan with each pose the link would refuse replaced by a reachable
+// variant where there is one (checked offline from the arm's joints now).
+std::vector<Eigen::Isometry3d> reachable_poses(
+    const PlanRequest& r, const Eigen::VectorXd& q,
+    const std::function<std::vector<Eigen::Isometry3d>(const PoseVariant&)>& make, std::ostream& out) {
+  if (r.robot_link_file.empty()) return make(PoseVariant{});
+  if (q.size() == 0) {
+    out << "no joints on ROBOT_STATE: the poses' reachability is not checked\n";
+    return make(PoseVariant{});
+  }
+  config::Document doc = config::Document::load_file(r.robot_link_file);
+  LinkReach reach(arm::RobotLinkConfig::from_config(doc.root()), q, r.run.max_linear_speed, r.run.max_angular_speed);
+  std::vector<std::string> refusals;
+  const ReachablePlan p = choose_reachable(make, [&](const Eigen::Isometry3d& pose) {
+    std::string why;
+    const bool ok = reach.accept(pose, &why);
+    if (!ok) refusals.push_back(why);
+    return ok;
+  });
+  out << fmt::format("reachability ({}, the robot link's own checks): {} of {} poses as planned, {} by a variant, {} "
+                     "by none (the link will refuse them: skipped)\n",
+                     r.robot_link_file, p.nominal(), p.poses.size(), p.held() - p.nominal(),
+                     static_cast<int>(p.poses.size()) - p.held());
+  for (std::size_t k = 0; k < p.variant.size(); ++k) {
+    if (p.variant[k] == 0) continue;
+    if (p.variant[k] < 0) {
+      out << fmt::format("  pose {:2d}: no reachable variant\n", k + 1);
+      continue;
+    }
+    const PoseVariant& v = fallback_variants()[static_cast<std::size_t>(p.variant[k] - 1)];
+    out << fmt::format("  pose {:2d}: tilt x{:.1f}, roll x{:.0f}, distance {:+.0f} mm\n", k + 1, v.tilt_scale,
+                       v.roll_scale, 1000 * v.distance_change_m);
+  }
+  return p.poses;
+}
+
+}  // namespace
 int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
   const bool hand_eye = r.procedure == "hand-eye";
   try {
@@ -52,13 +93,17 @@ int run_plan(const PlanRequest& r, std::ostream& out, std::ostream& err) {
     if (hand_eye) {
       const Eigen::Isometry3d board_in_base = tool * estimate * in_camera;
       out << pose_line("board in the base frame", board_in_base) << "\n";
-      poses = plan_hand_eye(board_in_base, r.board, estimate, r.hand_eye);
+      poses = reachable_poses(r, locator.last_joints(), [&](const PoseVariant& v) {
+        return plan_hand_eye(board_in_base, r.board, estimate, r.hand_eye, v);
+      }, out);
     } else {
       // A mirrored view's pose is in the camera's proper twin.
       const Eigen::Isometry3d board_in_base = (view.mirrored ? proper_twin(estimate) : estimate) * in_camera;
       const Eigen::Isometry3d board_in_tool = tool.inverse() * board_in_base;
       out << pose_line("board on the tool", board_in_tool) << "\n";
-      poses = plan_extrinsics(estimate, r.board, board_in_tool, r.extrinsics);
+      poses = reachable_poses(r, locator.last_joints(), [&](const PoseVariant& v) {
+        return plan_extrinsics(estimate, r.board, board_in_tool, r.extrinsics, v);
+      }, out);
     }
     check_rotation_diversity(poses, PoseOptions{});
     out << pose_line("tool now", tool) << "\n";

@@ -21,6 +21,9 @@ struct PlanRequest {
   std::string intrinsics_file;  // that camera's calibration
   std::string hand_eye_file;    // hand-eye: the current camera-in-hand estimate
   std::string extrinsic_file;   // extrinsics: the current fixed-camera estimate
+  // The robot link's configuration, to check each pose's reachability before
+  // moving and replace a pose it would refuse by a reachable variant (empty: no check).
+  std::string robot_link_file = "config/arm/robot_link.yaml";
   BoardSpec board;
   HandEyePlan hand_eye;
   ExtrinsicsPlan extrinsics;

@@ -30,7 +30,10 @@ SimCameras::SimCameras(const Scenario& scenario, const Scene& scene)
   fixed_.set_look(scenario_.look, scenario_.fixed_camera.rate_hz);
   hand_.set_look(scenario_.look, scenario_.hand_camera.rate_hz);
   for (const BoardSetup& b : scenario_.boards) {
-    const auto board = std::make_shared<const BoardPrimitive>(b.spec, b.pose);
+    // A board on the tool is where the tool starts until the first request poses it.
+    const auto board =
+        std::make_shared<BoardPrimitive>(b.spec, b.on_tool ? compose(start_tool_pose(scenario_.arm), b.pose) : b.pose);
+    if (b.on_tool) tool_boards_.emplace_back(board, b.pose);
     fixed_.add_primitive(board);
     hand_.add_primitive(board);
   }
@@ -88,6 +91,7 @@ image_t SimCameras::render(const FrameRequest& request) {
     throw std::invalid_argument("a frame request with " + std::to_string(request.fruit.size()) +
                                 " fruit for a scene of " + std::to_string(scene_.fruit().size()));
   scene_.fruit() = request.fruit;
+  for (auto& [board, in_tool] : tool_boards_) board->set_pose(compose(request.tool, in_tool));
   const cv::Mat* bgr = nullptr;
   const CameraSetup* cam = nullptr;
   switch (request.camera) {

@@ -2,9 +2,10 @@
 // (calibration boards, stickers), over the cameras' own copy of the scene.
 //
 // A frame is drawn from a FrameRequest, a snapshot the simulator's loop takes
-// at the frame's time: the fruit as the physics left them and the hand
-// camera's true pose. Leaves, branches and boards never move, so the copy
-// made at construction holds them. The renderers keep state between frames
+// at the frame's time: the fruit as the physics left them and the tool's and
+// hand camera's true poses (a board clamped to the tool is drawn where the
+// tool was at that tick). Leaves, branches and boards on stands never move,
+// so the copy made at construction holds them. The renderers keep state between frames
 // (noise, auto-exposure, the previous pose for motion blur), so one thread at
 // a time renders (render_worker.hpp: the render thread, or the loop itself).
 #pragma once
@@ -22,6 +23,7 @@
 
 namespace harvest::sim {
 
+class BoardPrimitive;
 class StickerPrimitive;
 
 enum class CameraId : int { kFixed = 0, kHand = 1, kZoom = 2 };
@@ -33,6 +35,7 @@ struct FrameRequest {
   int64_t utime = 0;         // the simulation time of the state below: the frame's header.utime
   std::vector<Fruit> fruit;  // every fruit at utime
   Placement hand_camera;     // the hand camera's true pose at utime (kHand)
+  Placement tool;            // the tool's true pose at utime (boards clamped to it)
 };
 
 class SimCameras {
@@ -69,6 +72,8 @@ class SimCameras {
   Renderer fixed_, hand_;
   std::optional<Renderer> zoom_;                                   // scenario zoom: CAMERA_FIXED_ZOOM
   std::vector<std::shared_ptr<const StickerPrimitive>> stickers_;  // per fruit, null without a sticker
+  // Boards clamped to the tool, with their pose in the tool frame: posed from each request's tool before drawing.
+  std::vector<std::pair<std::shared_ptr<BoardPrimitive>, Placement>> tool_boards_;
   std::vector<float> start_visible_fraction_;
 };
 

@@ -219,7 +219,10 @@ Scenario Scenario::from_config(const config::Node& root) {
       if (bs.spec.marker_m >= bs.spec.square_m) b.fail("marker_mm", "smaller than square_mm");
       bs.spec.margin_m = b.get(sk::boards::margin_mm) * kMm;
       bs.spec.dictionary = b.choice(kl::dictionary.name, std::string(kl::dictionary.fallback), board_dictionaries());
-      bs.pose = placement_rpy(b.child("stand"), kl::translation_mm, kl::rpy_deg);
+      // On a stand (base frame) or clamped to the tool (tool frame), not both.
+      bs.on_tool = b.has("tool");
+      if (bs.on_tool && b.has("stand")) b.fail("tool", "either a stand or the tool, not both");
+      bs.pose = placement_rpy(b.child(bs.on_tool ? "tool" : "stand"), kl::translation_mm, kl::rpy_deg);
       try {
         make_board(bs.spec);
       } catch (const std::invalid_argument& e) {
@@ -311,7 +314,9 @@ std::vector<config::Section> Scenario::schema() {
               kl::variant_start_tool_position_mm, kl::variant_start_look_at_mm, kl::variant_fruit),
       section("scenario.boards[]", "Calibration boards (ChArUco) in the scene.", kl::squares, sk::boards::square_mm,
               sk::boards::marker_mm, sk::boards::margin_mm, kl::dictionary),
-      section("scenario.boards[].stand", "Where the board stands.", kl::translation_mm, kl::rpy_deg),
+      section("scenario.boards[].stand", "Where the board stands (base frame).", kl::translation_mm, kl::rpy_deg),
+      section("scenario.boards[].tool", "Or: the board clamped to the tool, its frame in the tool frame; it moves "
+              "with the tool (fixed-camera extrinsics).", kl::translation_mm, kl::rpy_deg),
       section("scenario.gripper", where, sk::gripper::close_time_s, sk::gripper::open_time_s,
               sk::gripper::capture_radius_mm, sk::gripper::capture_axial_min_mm, sk::gripper::capture_axial_max_mm,
               sk::gripper::knock_radius_mm, sk::gripper::detach_distance_mm, sk::gripper::palm_offset_mm),

@@ -367,10 +367,13 @@ struct Faults {
 using calib::BoardSpec;
 
 // A board on a stand: `pose` takes board-frame points (OpenCV's board frame)
-// to the base frame.
+// to the base frame. A board clamped to the tool (`on_tool`, the fixed
+// camera's extrinsic calibration): `pose` takes them to the tool frame, and
+// the board moves with the tool.
 struct BoardSetup {
   BoardSpec spec;
   Placement pose;
+  bool on_tool = false;
 };
 
 struct Scenario {

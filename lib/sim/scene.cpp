@@ -38,6 +38,10 @@ Vec3 peel_colour(std::mt19937_64& rng) { return Vec3(uniform(rng, 200, 215), uni
 
 }  // namespace
 
+Placement start_tool_pose(const ArmSetup& arm) {
+  return {look_at_rotation(arm.start_tool_position, arm.start_look_at), arm.start_tool_position};
+}
+
 Mat3 look_at_rotation(const Vec3& from, const Vec3& to) {
   const Vec3 z = (to - from).normalized();
   Vec3 y = Vec3::UnitX() - Vec3::UnitX().dot(z) * z;

@@ -76,4 +76,7 @@ class Scene {
 // "down"), so the hand image is upright.
 Mat3 look_at_rotation(const Vec3& from, const Vec3& to);
 
+// The tool's pose at the start: at start_tool_position, looking at start_look_at.
+Placement start_tool_pose(const ArmSetup& arm);
+
 }  // namespace harvest::sim

@@ -40,10 +40,6 @@ const char* state_name(FruitState s) {
   return "?";
 }
 
-Placement start_pose(const ArmSetup& a) {
-  return {look_at_rotation(a.start_tool_position, a.start_look_at), a.start_tool_position};
-}
-
 // A fruit counts for the run when the arm can reach it and the fixed camera
 // sees at least half of it at the start (the targets the issue scores).
 bool counts(const Fruit& f, float visible_fraction) { return f.reachable && visible_fraction >= 0.5f; }
@@ -90,7 +86,7 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
       config_(std::move(config)),
       scenario_(std::move(scenario)),
       scene_(scenario_),
-      arm_(scenario_.arm, start_pose(scenario_.arm), config_.reported_hand_eye),
+      arm_(scenario_.arm, start_tool_pose(scenario_.arm), config_.reported_hand_eye),
       gripper_(scenario_.gripper),
       ir_(scenario_.ir, scenario_.seed + 3),
       cameras_(scenario_, scene_),
@@ -102,7 +98,7 @@ SimNode::SimNode(SimConfig config, Scenario scenario)
     throw std::invalid_argument("hardware 'devices' needs a devices configuration");
   if (devices_mode()) {
     const StartConfiguration start =
-        start_joints(config_.devices->model, to_isometry(scenario_.arm.mounting), start_pose(scenario_.arm));
+        start_joints(config_.devices->model, to_isometry(scenario_.arm.mounting), start_tool_pose(scenario_.arm));
     device_arm_start_ = start.q;
     if (start.tilt_rad > 1e-6)
       spdlog::warn(
@@ -339,7 +335,7 @@ void SimNode::camera_tick(CameraId camera) {
     return;
   }
   // The frame shows the world as it is now, whenever it is rendered.
-  FrameRequest request{camera, now(), scene_.fruit(), hand_camera()};
+  FrameRequest request{camera, now(), scene_.fruit(), hand_camera(), tool()};
   if (!worker_->submit(std::move(request))) {
     count(std::string("render_dropped.") + camera_name(camera));
     timekeeping_.frame(camera, true);

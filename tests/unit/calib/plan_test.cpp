@@ -5,20 +5,25 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
+#include <fmt/format.h>
 #include <set>
 
+#include "arm/robot_link_config.hpp"
 #include "calib/calibration_node.hpp"
+#include "calib/link_reach.hpp"
 #include "calib/plan_runner.hpp"
 #include "calib/pose_plan.hpp"
 #include "calib/solvers.hpp"
 #include "calib_scenes.hpp"
 #include "geometry/pose_msg.hpp"
 #include "harvest/robot_command_t.hpp"
+#include "kinematics/chain.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/sim_runner.hpp"
 #include "security/authority.hpp"
 #include "security/key.hpp"
 #include "sim/cameras.hpp"
+#include "sim/devices.hpp"
 
 namespace harvest::calib {
 namespace {
@@ -84,6 +89,137 @@ TEST(PosePlan, ExtrinsicsShowTheCarriedBoardAcrossTheImageOfAnImproperCamera) {
   }
   EXPECT_EQ(cells.size(), 9u);
   EXPECT_NO_THROW(check_rotation_diversity(tools, PoseOptions{}));
+}
+
+// A variant keeps what the calibration needs of its pose: hand-eye, the
+// direction the view is tilted toward (the rotation's axis); extrinsics, the
+// board's place in the image.
+TEST(PosePlan, AVariantKeepsTheViewsTiltAxisAndItsPlaceInTheImage) {
+  const BoardSpec board;
+  const Isometry3d board_in_base = pose(-0.38, 0.8, -0.3, -90, 0, 0);
+  const Isometry3d camera_in_tool = pose(0.014, -0.009, -0.048, 0.6, -0.8, 1.5);
+  const auto nominal = plan_hand_eye(board_in_base, board, camera_in_tool);
+  // The board's normal in the camera frame: its x, y components are the tilt's direction and size (the
+  // roll about the optical axis leaves them be).
+  const auto tilt = [&](const Isometry3d& tool) {
+    const Vector3d d = (tool * camera_in_tool).linear().transpose() * board_in_base.linear().col(2);
+    return Eigen::Vector2d(d.x(), d.y());
+  };
+  for (const PoseVariant& v : fallback_variants()) {
+    const auto varied = plan_hand_eye(board_in_base, board, camera_in_tool, HandEyePlan{}, v);
+    ASSERT_EQ(varied.size(), nominal.size());
+    for (std::size_t k = 0; k < nominal.size(); ++k) {
+      const Eigen::Vector2d a = tilt(nominal[k]), b = tilt(varied[k]);
+      EXPECT_GT(a.normalized().dot(b.normalized()), std::cos(10 * M_PI / 180)) << k;
+      EXPECT_GT(b.norm(), 0.45 * a.norm()) << k;  // tilted at least half as far
+    }
+  }
+  Isometry3d camera = Isometry3d::Identity();
+  camera.linear() << 0, 1, 0, 0, 0, 1, -1, 0, 0;
+  camera.translation() = Vector3d(-0.24, 0.23, -0.40);
+  const Isometry3d board_in_tool = pose(0.10, -0.14, 0.06, 180, 0, 90);
+  const auto grid = plan_extrinsics(camera, board, board_in_tool);
+  for (const PoseVariant& v : fallback_variants()) {
+    const auto varied = plan_extrinsics(camera, board, board_in_tool, ExtrinsicsPlan{}, v);
+    for (std::size_t k = 0; k < grid.size(); ++k) {
+      const auto in_image = [&](const Isometry3d& tool) {
+        const Vector3d c = proper_twin(camera).inverse() * (tool * board_in_tool * Vector3d(0.14, 0.10, 0.0));
+        return Eigen::Vector2d(c.x() / c.z(), c.y() / c.z());
+      };
+      EXPECT_LT((in_image(varied[k]) - in_image(grid[k])).norm(), 1e-9) << k;
+    }
+  }
+}
+
+TEST(PosePlan, ARefusedPoseIsReplacedByTheFirstReachableVariant) {
+  // Poses as points: pose k of variant v at (k, v, 0), so what was chosen is readable.
+  const auto variant_index = [](const PoseVariant& v) -> int {
+    if (v.tilt_scale == 1.0 && v.roll_scale == 1.0 && v.distance_change_m == 0.0) return 0;
+    const auto& f = fallback_variants();
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (f[i].tilt_scale == v.tilt_scale && f[i].roll_scale == v.roll_scale &&
+          f[i].distance_change_m == v.distance_change_m)
+        return static_cast<int>(i) + 1;
+    return -99;
+  };
+  const auto make = [&](const PoseVariant& v) {
+    std::vector<Isometry3d> poses;
+    for (int k = 0; k < 9; ++k) poses.push_back(pose(k, variant_index(v), 0));
+    return poses;
+  };
+  std::vector<std::pair<int, int>> asked;
+  // Pose 2 is reachable only from the second fallback on, pose 5 never; the rest as planned.
+  const ReachablePlan p = choose_reachable(make, [&](const Isometry3d& t) {
+    const int k = static_cast<int>(t.translation().x()), v = static_cast<int>(t.translation().y());
+    asked.emplace_back(k, v);
+    if (k == 2) return v >= 2;
+    return k != 5;
+  });
+  ASSERT_EQ(p.poses.size(), 9u);
+  EXPECT_EQ(p.variant[2], 2);
+  EXPECT_EQ(p.poses[2].translation().y(), 2.0);
+  EXPECT_EQ(p.variant[5], -1);
+  EXPECT_EQ(p.poses[5].translation().y(), 0.0);  // the nominal pose, for the run to skip
+  EXPECT_EQ(p.held(), 8);
+  EXPECT_EQ(p.nominal(), 7);
+  // In the plan's order, each pose's candidates in turn until one is taken.
+  const std::size_t all = fallback_variants().size() + 1;
+  EXPECT_EQ(asked.size(), 7 + 3 + all);
+  EXPECT_EQ(asked[2], std::make_pair(2, 0));
+  EXPECT_EQ(asked[4], std::make_pair(2, 2));
+  EXPECT_EQ(asked[5], std::make_pair(3, 0));
+}
+
+arm::RobotLinkConfig shipped_link() {
+  auto doc = config::Document::load_file("config/arm/robot_link.yaml");
+  return arm::RobotLinkConfig::from_config(doc.root());
+}
+
+TEST(LinkReach, TheLinksOwnChecksFromTheJointsThePosesBeforeLeft) {
+  const arm::RobotLinkConfig link = shipped_link();
+  const Eigen::VectorXd home = link.model.home;
+  const Isometry3d at_home = kinematics::tool_pose(link.model, home);
+  LinkReach reach(link, home, 0.1, 0.3);
+  std::string why;
+  EXPECT_TRUE(reach.accept(at_home * pose(0.0, 0.0, 0.05), &why)) << why;  // 5 cm along the tool axis
+  EXPECT_GT((reach.joints() - home).norm(), 1e-3);                       // the arm is now taken to be there
+  EXPECT_NEAR((kinematics::tool_pose(link.model, reach.joints()).translation() -
+               (at_home * pose(0.0, 0.0, 0.05)).translation()).norm(), 0.0, 0.005);
+  EXPECT_FALSE(reach.accept(pose(10.0, 0.0, 0.0), &why));
+  EXPECT_EQ(why, "pose goal outside the workspace");
+  // The workspace's far corner, 1.5 m from the base: beyond the arm's reach.
+  const Eigen::VectorXd before = reach.joints();
+  Isometry3d far = at_home;
+  far.translation() = Vector3d(0.69, 1.29, 0.29);
+  EXPECT_FALSE(reach.accept(far, &why));
+  EXPECT_NE(why.find("not reachable"), std::string::npos) << why;
+  EXPECT_EQ(reach.joints(), before);  // a refused pose leaves the arm where it was
+}
+
+// The hand-eye plan of the calibration scenario (the board where it stands,
+// the arm at the scenario's start): how many poses the link takes as
+// planned, skipping the refused ones as the run does, and how many with
+// refused poses replaced by a reachable variant.
+TEST(LinkReach, VariantsRecoverTheHandEyePosesTheLinkWouldRefuse) {
+  const test::CalibScenes scenes;
+  const sim::Scenario& sc = scenes.scenario();
+  const arm::RobotLinkConfig link = shipped_link();
+  const Eigen::VectorXd q0 =
+      sim::start_joints(link.model, Isometry3d::Identity(), sim::start_tool_pose(sc.arm)).q;
+  const auto make = [&](const PoseVariant& v) {
+    return plan_hand_eye(test::iso(scenes.board().pose), scenes.board().spec, test::iso(sc.arm.hand_eye),
+                         HandEyePlan{}, v);
+  };
+  LinkReach as_planned(link, q0, 0.1, 0.3);
+  int before = 0;
+  for (const Isometry3d& t : make(PoseVariant{})) before += as_planned.accept(t) ? 1 : 0;
+  LinkReach with_variants(link, q0, 0.1, 0.3);
+  const ReachablePlan p = choose_reachable(make, [&](const Isometry3d& t) { return with_variants.accept(t); });
+  std::printf("hand-eye plan, calibration scenario: %d of 12 poses reachable as planned, %d with variants\n", before,
+              p.held());
+  EXPECT_GT(p.held(), before);
+  EXPECT_GE(p.held(), 11);
+  EXPECT_NO_THROW(check_rotation_diversity(p.poses, PoseOptions{}));
 }
 
 // ---- the runner ----

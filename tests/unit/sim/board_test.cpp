@@ -6,6 +6,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "camera/image_codec.hpp"
+#include "sim/cameras.hpp"
 #include "sim/cartesian_arm.hpp"
 #include "sim/scene.hpp"
 #include "test_scenes.hpp"
@@ -194,6 +196,87 @@ TEST(Board, TheCalibrationScenarioShowsTheWholeBoardToTheHandCamera) {
   EXPECT_LT(worst, 0.4) << "px";
 }
 
+// A board clamped to the tool, seen by the fixed camera through SimCameras
+// (the simulator's own path: the tool's pose comes with the frame request).
+// The worked numbers: the fixed camera at the base origin looking along base
+// +y (thesis frame: camera x = -base z, y = base x, z = base y), fx 400,
+// fy 380, (cx, cy) = (159.5, 119.5), no distortion. The tool at
+// (-0.16, 0.60, 0.07) turned -90 deg about base x (tool z along base +y, tool
+// y along base -z); the board 20 mm along tool x, -30 mm along y, 100 mm
+// behind the tool, square with it. Its origin is then at base
+// (-0.16 + 0.02, 0.60 - 0.10, 0.07 + 0.03) = (-0.14, 0.50, 0.10), and
+// ChArUco corner 0, at (40, 40, 0) mm on the board, at base
+// (-0.10, 0.50, 0.06) = camera (-0.06, -0.10, 0.50): pixel
+// (159.5 + 400 x -0.12, 119.5 + 380 x -0.20) = (111.5, 43.5). Moving the tool
+// 10 mm along base +x moves it 380 x 0.01 / 0.5 = 7.6 px down the image.
+struct ToolBoardScene {
+  Scenario sc = test::one_fruit(Vec3(0.6, 1.5, 0.0));  // the fruit well out of view
+  BoardSpec spec;
+  ToolBoardScene() {
+    sc.fixed_camera.model.fx = 400.0;
+    sc.fixed_camera.model.fy = 380.0;
+    sc.fixed_camera.model.skew = 0.0;
+    sc.fixed_camera.model.cx = 159.5;
+    sc.fixed_camera.model.cy = 119.5;
+    sc.fixed_camera.model.dist = {};
+    sc.fixed_camera.encoding = "bgr8";
+    sc.hand_camera.encoding = "bgr8";
+    sc.boards.push_back({spec, {Mat3::Identity(), Vec3(0.02, -0.03, -0.10)}, true});
+  }
+  static Placement tool(const Vec3& shift = Vec3::Zero()) {
+    return {Eigen::AngleAxisd(-M_PI / 2, Vec3::UnitX()).toRotationMatrix(), Vec3(-0.16, 0.60, 0.07) + shift};
+  }
+  // The fixed camera's frame with the tool at `tool`; corners found in the
+  // left-right flipped image (a proper board seen through the improper thesis
+  // frame is mirrored) and mapped back to the frame's pixels.
+  Found fixed_view(SimCameras& cams, const Placement& tool) const {
+    const Scene scene(sc);
+    const image_t img = cams.render({CameraId::kFixed, 0, scene.fruit(), Placement{}, tool});
+    const camera::DecodedImage d = camera::decode_image(img);
+    EXPECT_TRUE(d.ok()) << d.error;
+    cv::Mat flipped;
+    cv::flip(d.bgr, flipped, 1);
+    Found f = detect(flipped, make_board(spec));
+    for (cv::Point2f& c : f.corners) c.x = static_cast<float>(d.bgr.cols - 1) - c.x;
+    return f;
+  }
+};
+
+cv::Point2f corner(const Found& f, int id) {
+  for (std::size_t k = 0; k < f.ids.size(); ++k)
+    if (f.ids[k] == id) return f.corners[k];
+  ADD_FAILURE() << "corner " << id << " not found";
+  return {-1, -1};
+}
+
+TEST(Board, ABoardOnTheToolIsWhereTheToolPutsIt) {
+  ToolBoardScene t;
+  SimCameras cams(t.sc, Scene(t.sc));
+  const Found f = t.fixed_view(cams, ToolBoardScene::tool());
+  EXPECT_EQ(f.ids.size(), static_cast<std::size_t>((t.spec.squares_x - 1) * (t.spec.squares_y - 1)));
+  const cv::Point2f c0 = corner(f, 0);
+  std::printf("tool-held board, corner 0 at (%.3f, %.3f) px, worked (111.5, 43.5)\n", c0.x, c0.y);
+  EXPECT_NEAR(c0.x, 111.5, 0.3);
+  EXPECT_NEAR(c0.y, 43.5, 0.3);
+}
+
+TEST(Board, ABoardOnTheToolMovesWithTheTool) {
+  ToolBoardScene t;
+  SimCameras cams(t.sc, Scene(t.sc));
+  const Found before = t.fixed_view(cams, ToolBoardScene::tool());
+  const Found after = t.fixed_view(cams, ToolBoardScene::tool(Vec3(0.01, 0.0, 0.0)));
+  ASSERT_EQ(after.ids.size(), before.ids.size());
+  // Every corner 7.6 px down the image, none across (the board square on, no distortion).
+  for (int id : before.ids) {
+    const cv::Point2f a = corner(before, id), b = corner(after, id);
+    EXPECT_NEAR(b.x - a.x, 0.0, 0.3) << "corner " << id;
+    EXPECT_NEAR(b.y - a.y, 7.6, 0.3) << "corner " << id;
+  }
+  // And back where it was with the tool back: the pose is the request's, nothing accumulates.
+  const Found again = t.fixed_view(cams, ToolBoardScene::tool());
+  EXPECT_NEAR(corner(again, 0).y, corner(before, 0).y, 0.3);
+}
+
 TEST(Board, ScenarioBoardsAreChecked) {
   const std::string good = "name: t\nfruit: [{position_mm: [0, 1000, 0]}]\nboards:\n  - ";
   const auto load = [&](const std::string& board) {
@@ -207,7 +290,11 @@ TEST(Board, ScenarioBoardsAreChecked) {
   EXPECT_EQ(s.boards[0].spec.squares_x, 5);
   EXPECT_NEAR(s.boards[0].spec.marker_m, 0.022, 1e-12);
   EXPECT_NEAR(s.boards[0].pose.position.z(), 0.003, 1e-12);
-  for (const std::string bad : {"{squares: [2, 4]}", "{squares: [5.5, 4]}", "{square_mm: 20, marker_mm: 20}",
+  const Scenario on_tool = load("{tool: {translation_mm: [0, 0, -100], rpy_deg: [0, 0, 90]}}");
+  EXPECT_TRUE(on_tool.boards.at(0).on_tool);
+  EXPECT_NEAR(on_tool.boards[0].pose.position.z(), -0.1, 1e-12);
+  EXPECT_FALSE(s.boards[0].on_tool);
+  for (const std::string bad : {"{squares: [2, 4]}", "{stand: {translation_mm: [1, 2, 3]}, tool: {}}", "{squares: [5.5, 4]}", "{square_mm: 20, marker_mm: 20}",
                                 "{dictionary: DICT_7X7_50}", "{squares: [11, 11], dictionary: DICT_4X4_50}"})
     EXPECT_THROW(load(bad), config::Error) << bad;
 }
