@@ -1,5 +1,7 @@
 #include "logtools/replay_tool.hpp"
 
+#include "runtime/journal_runner.hpp"
+
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -22,6 +24,7 @@
 #include "logtools/explain.hpp"
 #include "runtime/allocator.hpp"
 #include "runtime/channels.hpp"
+#include "runtime/journal_runner.hpp"
 #include "runtime/log_io.hpp"
 #include "runtime/replay_runner.hpp"
 #include "servo/nodes.hpp"
@@ -230,7 +233,47 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   struct {
     double wall_s = 0, cpu_s = 0;
   } speed;
+  // The log's own nodes with a journal of their process are replayed from it, each on its own.
+  std::map<std::string, rt::Journal> journals;
+  if (own_nodes_start && o.use_journals) {
+    try {
+      journals = rt::read_journals(o.input_log, o.prefix);
+    } catch (const std::exception& e) {
+      err << "harvest-replay: " << e.what() << "\n";
+      return 3;
+    }
+  }
+  auto journal_of = [&](const BuiltNode& b) -> const rt::Journal* {
+    auto it = journals.find(b.spec.label);
+    return it == journals.end() || it->second.entries.empty() ? nullptr : &it->second;
+  };
+  std::vector<std::string> journal_lines;
   auto replay_once = [&](const std::string& input, std::set<std::string>& regenerated) {
+    journal_lines.clear();
+    regenerated.clear();
+    std::vector<std::string> outputs;
+    const auto wall0 = std::chrono::steady_clock::now();
+    const std::clock_t cpu0 = std::clock();
+    for (auto& b : built) {
+      const rt::Journal* j = journal_of(*b);
+      if (j == nullptr) continue;
+      const std::string part = o.output_log + ".journal-" + b->spec.label;
+      rt::JournalRunner jr(input, part, o.prefix, b->spec.start);
+      std::vector<rt::Node*> nodes;
+      for (auto& n : b->nodes) nodes.push_back(n.get());
+      const auto r = jr.run(nodes, *j);
+      outputs.push_back(part);
+      for (const auto& c : jr.advertised()) regenerated.insert(jr.full_channel(c));
+      std::string line = "  " + b->spec.label + " replayed from its journal (" + std::to_string(j->records) +
+                         " records" +
+                         (j->missing_records > 0 ? ", " + std::to_string(j->missing_records) + " lost by the logger"
+                                                 : std::string()) +
+                         "): " + std::to_string(r.messages) + " inputs at their live times, " +
+                         std::to_string(r.timers) + " timer firings as they ran, " +
+                         std::to_string(r.missing_inputs) + " inputs not in the recording";
+      for (const auto& m : r.missing) line += "\n    missing: " + m;
+      journal_lines.push_back(line);
+    }
     rt::ReplayOptions ro;
     ro.input_log = input;
     ro.output_log = o.output_log;
@@ -240,19 +283,29 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
     rt::ReplayRunner runner(ro);
     for (auto& b : built)
       for (auto& n : b->nodes) {
+        if (journal_of(*b) != nullptr) continue;
         if (ro.isolated && b->spec.start > 0)
           runner.add_from(*n, b->spec.start);
         else
           runner.add(*n);
       }
-    // The tool's own speed (not the nodes' clock, which is the log's): wall and CPU time of the run.
-    const auto wall0 = std::chrono::steady_clock::now();
-    const std::clock_t cpu0 = std::clock();
     const auto result = runner.run();
+    for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
+    if (!outputs.empty() && !o.output_log.empty()) {
+      // One output log, in time order (stable: each part's own order kept).
+      std::vector<rt::LogRecord> merged = rt::read_log(o.output_log);
+      for (const auto& part : outputs) {
+        auto records = rt::read_log(part);
+        std::move(records.begin(), records.end(), std::back_inserter(merged));
+        std::filesystem::remove(part);
+      }
+      std::stable_sort(merged.begin(), merged.end(),
+                       [](const rt::LogRecord& a, const rt::LogRecord& b) { return a.timestamp < b.timestamp; });
+      rt::write_log(o.output_log, merged);
+    }
+    // The tool's own speed (not the nodes' clock, which is the log's): wall and CPU time of the runs.
     speed.cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
     speed.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    regenerated.clear();
-    for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
     return result;
   };
   rt::ReplayResult result;
@@ -293,6 +346,7 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
           << (b->spec.config.empty() ? "" : ":" + b->spec.config) << "): received " << st.received << ", published "
           << st.published << ", decode errors " << st.decode_errors << "\n";
     }
+  for (const auto& l : journal_lines) out << l << "\n";
   std::string chans;
   for (const auto& c : regenerated) chans += " " + c;
   out << "  regenerated channels:" << chans << "\n";
@@ -365,6 +419,10 @@ int replay_main(int argc, char** argv) {
   app.add_option("--tail", o.tail_s, "keep firing timers this long after the last event [s]");
   app.add_flag("--rebase", o.rebase,
                "write OUT as the input with the regenerated channels replaced (refresh a reference log)");
+  bool ignore_journals = false;
+  app.add_flag("--ignore-journals", ignore_journals,
+               "replay the log's own nodes by the log's order and their timers' due times even where their process "
+               "published a JOURNAL (approximate; docs/replay.md)");
   app.add_flag("--list-nodes", list, "print the replayable nodes and exit");
   try {
     app.parse(argc, argv);
@@ -381,6 +439,7 @@ int replay_main(int argc, char** argv) {
     }
     for (const auto& t : tolerances) o.compare_options.add_tolerance(t);
     for (const auto& i : ignores) o.compare_options.add_ignore(i);
+    o.use_journals = !ignore_journals;
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? 0 : 2;

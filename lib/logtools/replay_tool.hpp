@@ -69,6 +69,9 @@ struct ReplayToolOptions {
   // Write OUT as the input with the regenerated channels replaced by the
   // replayed ones (refreshing a reference log when a change is intended).
   bool rebase = false;
+  // The log's own nodes: replay each process with a JOURNAL from it (exact);
+  // false: every node by the log's order and its timers' due times (approximate).
+  bool use_journals = true;
 };
 
 int run_replay_tool(const ReplayToolOptions& options, std::ostream& out, std::ostream& err);

@@ -24,6 +24,7 @@ inline constexpr const char* kOperatorCommand = "OPERATOR_COMMAND";  // operator
 inline constexpr const char* kEmergencyStop = "EMERGENCY_STOP";      // emergency_stop_t
 inline constexpr const char* kProcessStatus = "PROCESS_STATUS";      // process_status_t
 inline constexpr const char* kConfig = "CONFIG";                     // config_snapshot_t
+inline constexpr const char* kJournal = "JOURNAL";                   // node_journal_t (docs/replay.md)
 inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS";        // deputy_status_t
 inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT";        // deputy_output_t
 inline constexpr const char* kLaunchOrder = "LAUNCH_ORDER";          // launch_order_t

@@ -12,8 +12,37 @@ void Dispatcher::subscribe_bytes(const std::string& channel, RawHandler handler)
   if (list.size() == 1) on_first_subscription(channel);
 }
 
-TimerId Dispatcher::add_timer(Micros first_due, Micros period, std::function<void()> callback) {
-  return timers_.add(first_due, period, std::move(callback));
+TimerId Dispatcher::add_timer(Micros first_due, Micros period, std::function<void()> callback,
+                              const std::string& owner) {
+  const TimerId id = timers_.add(first_due, period, std::move(callback));
+  const std::string label =
+      owner.empty() ? "#" + std::to_string(id) : owner + "#" + std::to_string(timers_per_owner_[owner]++);
+  timer_labels_[id] = label;
+  timer_ids_[label] = id;
+  return id;
+}
+
+void Dispatcher::cancel_timer(TimerId id) {
+  timers_.cancel(id);
+  forget_timer(id);
+}
+
+void Dispatcher::forget_timer(TimerId id) {
+  auto it = timer_labels_.find(id);
+  if (it == timer_labels_.end()) return;
+  timer_ids_.erase(it->second);
+  timer_labels_.erase(it);
+}
+
+std::string Dispatcher::timer_label(TimerId id) const {
+  auto it = timer_labels_.find(id);
+  return it == timer_labels_.end() ? "#" + std::to_string(id) : it->second;
+}
+
+std::optional<TimerId> Dispatcher::timer_by_label(const std::string& label) const {
+  auto it = timer_ids_.find(label);
+  if (it == timer_ids_.end()) return std::nullopt;
+  return it->second;
 }
 
 std::string Dispatcher::logical_channel(const std::string& full) const {

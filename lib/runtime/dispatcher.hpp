@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -23,8 +24,13 @@ class Dispatcher : public Context {
   // Context
   void subscribe_bytes(const std::string& channel, RawHandler handler) override;
   void advertise(const std::string& channel) override { advertised_.insert(channel); }
-  TimerId add_timer(Micros first_due, Micros period, std::function<void()> callback) override;
-  void cancel_timer(TimerId id) override { timers_.cancel(id); }
+  TimerId add_timer(Micros first_due, Micros period, std::function<void()> callback,
+                    const std::string& owner = {}) override;
+  void cancel_timer(TimerId id) override;
+  // "owner#k" (see Context::add_timer), "#id" for a timer without an owner.
+  std::string timer_label(TimerId id) const;
+  // The live timer with this label, if any.
+  std::optional<TimerId> timer_by_label(const std::string& label) const;
 
   const std::string& prefix() const { return prefix_; }
   std::string full_channel(const std::string& channel) const { return prefix_ + channel; }
@@ -39,6 +45,8 @@ class Dispatcher : public Context {
   void attach_all();
   // Deliver one encoded message to every handler of channel.
   void deliver(const std::string& channel, const void* data, std::size_t size, Micros receive_time);
+  // A one-shot timer that fired, or a cancelled one: its label goes.
+  void forget_timer(TimerId id);
 
   TimerQueue timers_;
 
@@ -47,6 +55,9 @@ class Dispatcher : public Context {
   std::vector<Node*> nodes_;
   std::map<std::string, std::vector<RawHandler>> handlers_;
   std::set<std::string> advertised_;
+  std::map<TimerId, std::string> timer_labels_;
+  std::map<std::string, TimerId> timer_ids_;
+  std::map<std::string, int> timers_per_owner_;
   LogLimiter raw_handler_log_;
 };
 

@@ -18,6 +18,7 @@ LiveRunner::LiveRunner(LiveOptions options) : Dispatcher(options.prefix), option
     throw std::runtime_error("cannot open LCM" + (options_.lcm_url.empty() ? "" : " at " + options_.lcm_url) +
                              " (is there a multicast route? run tools/harvest netfix)");
   if (pipe2(wake_pipe_, O_CLOEXEC | O_NONBLOCK) != 0) throw std::runtime_error("pipe2 failed");
+  if (!options_.journal_instance.empty()) journal_ = std::make_unique<JournalWriter>(options_.journal_instance);
 }
 
 LiveRunner::~LiveRunner() {
@@ -46,7 +47,20 @@ void LiveRunner::on_first_subscription(const std::string& channel) {
 }
 
 void LiveRunner::on_lcm_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, LiveRunner* self) {
-  self->deliver(self->logical_channel(channel), rbuf->data, rbuf->data_size, self->clock_.now());
+  const Micros t = self->clock_.now();
+  const std::string logical = self->logical_channel(channel);
+  if (self->journal_) self->journal_->message(logical, rbuf->data, rbuf->data_size, t);
+  self->event_time_ = t;
+  self->deliver(logical, rbuf->data, rbuf->data_size, t);
+  self->event_time_.reset();
+}
+
+void LiveRunner::flush_journal(bool force) {
+  if (!journal_ || journal_->empty() || !(force || journal_->due(clock_.now()))) return;
+  const node_journal_t m = journal_->take(clock_.now());
+  std::vector<uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  publish_bytes(kJournalChannel, buf.data(), buf.size());
 }
 
 void LiveRunner::poll_once(Micros max_wait) {
@@ -78,7 +92,14 @@ void LiveRunner::poll_once(Micros max_wait) {
       }
     }
   }
-  timers_.fire_due(clock_.now(), [](Micros) {});
+  timers_.fire_due(clock_.now(), [this](Micros, TimerId id) {
+    // The callback's now() is when it ran (the journal's record of it), not its due time.
+    event_time_ = clock_.now();
+    if (journal_) journal_->timer(timer_label(id), *event_time_);
+    if (!timers_.periodic(id)) forget_timer(id);
+  });
+  event_time_.reset();
+  flush_journal(false);
 }
 
 int LiveRunner::run() {
@@ -92,6 +113,7 @@ int LiveRunner::run() {
   };
   while (!all_done() && clock_.now() < deadline) poll_once(10 * kMilli);
   if (!all_done()) spdlog::warn("shutdown timed out after {:.1f} s", to_seconds(options_.shutdown_timeout));
+  flush_journal(true);
   return exit_code_.load();
 }
 

@@ -24,7 +24,10 @@ int64_t LogicalTimeRunner::fire_until(Micros t, const std::function<bool()>& sto
   while (!(stop && stop())) {
     const auto due = timers_.next_due();
     if (!due || *due > t) break;
-    fired += static_cast<int64_t>(timers_.fire_due(*due, [this](Micros d) { clock_.set(d); }));
+    fired += static_cast<int64_t>(timers_.fire_due(*due, [this](Micros d, TimerId id) {
+      clock_.set(d);
+      if (!timers_.periodic(id)) forget_timer(id);
+    }));
     drain();
   }
   return fired;

@@ -19,11 +19,11 @@ Context& Node::ctx() const {
 
 TimerId Node::every(Micros period, std::function<void()> callback) {
   if (period <= 0) throw std::invalid_argument("node '" + name_ + "': timer period must be > 0");
-  return ctx().add_timer(now() + period, period, std::move(callback));
+  return ctx().add_timer(now() + period, period, std::move(callback), name_);
 }
 
 TimerId Node::after(Micros delay, std::function<void()> callback) {
-  return ctx().add_timer(now() + std::max<Micros>(delay, 0), 0, std::move(callback));
+  return ctx().add_timer(now() + std::max<Micros>(delay, 0), 0, std::move(callback), name_);
 }
 
 void Node::set_health(Health h, std::string message) {

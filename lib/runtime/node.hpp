@@ -41,7 +41,9 @@ class Context {
   // Declares that a node publishes on `channel`. Replay uses it to know which
   // recorded channels are regenerated (and so not fed back as input).
   virtual void advertise(const std::string& channel) = 0;
-  virtual TimerId add_timer(Micros first_due, Micros period, std::function<void()> callback) = 0;
+  // `owner` (a node's name) labels the timer "owner#k", k counting that owner's timers: what a journal names.
+  virtual TimerId add_timer(Micros first_due, Micros period, std::function<void()> callback,
+                            const std::string& owner = {}) = 0;
   virtual void cancel_timer(TimerId id) = 0;
   // Live only: call `on_readable` whenever fd is readable (device I/O in the
   // same single-threaded loop). Replay runners throw: device nodes are not replayed.

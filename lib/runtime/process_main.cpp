@@ -59,6 +59,10 @@ int run_process(int argc, char** argv, const std::string& process, const NodeFac
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
   app.add_flag("--check-config", check_config, "validate the configuration, print it and exit");
   app.add_flag("--no-netcheck", no_netcheck, "skip the network self-check");
+  bool no_journal = false;
+  app.add_flag("--no-journal", no_journal,
+               "publish no JOURNAL of what the nodes handled (without it a recording replays approximately: "
+               "docs/replay.md)");
   if (options.add_options) options.add_options(app);
   try {
     app.parse(argc, argv);
@@ -100,7 +104,9 @@ int run_process(int argc, char** argv, const std::string& process, const NodeFac
 
   if (!keep_freed_memory()) spdlog::warn("the allocator refused its settings: large blocks are unmapped when freed");
   try {
-    LiveRunner runner(LiveOptions{lcm_url, prefix});
+    LiveOptions live{lcm_url, prefix};
+    if (!no_journal) live.journal_instance = instance;
+    LiveRunner runner(live);
     std::string cmdline;
     for (int i = 0; i < argc; ++i) cmdline += (i ? " " : "") + std::string(argv[i]);
     std::vector<const Node*> watched;

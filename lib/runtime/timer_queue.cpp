@@ -25,7 +25,7 @@ std::optional<Micros> TimerQueue::next_due() const {
   return by_due_.begin()->first.first;
 }
 
-std::size_t TimerQueue::fire_due(Micros until, const std::function<void(Micros)>& set_time) {
+std::size_t TimerQueue::fire_due(Micros until, const std::function<void(Micros, TimerId)>& set_time) {
   std::size_t fired = 0;
   while (!by_due_.empty() && by_due_.begin()->first.first <= until) {
     auto node = by_due_.extract(by_due_.begin());
@@ -39,11 +39,29 @@ std::size_t TimerQueue::fire_due(Micros until, const std::function<void(Micros)>
     } else {
       due_of_.erase(id);
     }
-    set_time(due);
+    set_time(due, id);
     (*entry.callback)();  // `entry` holds it alive even if the callback cancels its own timer
     ++fired;
   }
   return fired;
+}
+
+bool TimerQueue::periodic(TimerId id) const {
+  auto it = due_of_.find(id);
+  return it != due_of_.end() && by_due_.at({it->second, id}).period > 0;
+}
+
+bool TimerQueue::fire_now(TimerId id) {
+  auto it = due_of_.find(id);
+  if (it == due_of_.end()) return false;
+  const auto key = std::make_pair(it->second, id);
+  const Entry entry = by_due_.at(key);
+  if (entry.period == 0) {
+    by_due_.erase(key);
+    due_of_.erase(it);
+  }
+  (*entry.callback)();
+  return true;
 }
 
 }  // namespace harvest::rt

@@ -24,7 +24,12 @@ class TimerQueue {
   // Fire every timer due at or before `until`, earliest first (ties in
   // creation order). set_time is called with each timer's due time before
   // its callback runs. Returns the number fired.
-  std::size_t fire_due(Micros until, const std::function<void(Micros)>& set_time);
+  std::size_t fire_due(Micros until, const std::function<void(Micros, TimerId)>& set_time);
+  // Runs timer `id`'s callback now, whatever its due time (a journal replay
+  // fires timers when the live ones ran): a periodic timer stays armed as it
+  // was, a one-shot one is gone. False if there is no such timer.
+  bool fire_now(TimerId id);
+  bool periodic(TimerId id) const;
   std::size_t size() const { return by_due_.size(); }
 
  private:

@@ -15,7 +15,7 @@ TEST(TimerQueue, FiresInDueOrderAndRearmsFromDueTime) {
   q.add(150, 0, [&] { fired.push_back({'b', clock}); });
   q.add(100, 50, [&] { fired.push_back({'c', clock}); });
   // Fire late: periodic timers catch up at their own due times, not at "now".
-  EXPECT_EQ(q.fire_due(260, [&](Micros t) { clock = t; }), 7u);
+  EXPECT_EQ(q.fire_due(260, [&](Micros t, harvest::rt::TimerId) { clock = t; }), 7u);
   const std::vector<std::pair<char, Micros>> expected{{'a', 100}, {'c', 100}, {'b', 150}, {'c', 150},
                                                       {'a', 200}, {'c', 200}, {'c', 250}};
   EXPECT_EQ(fired, expected);
@@ -29,7 +29,7 @@ TEST(TimerQueue, CancelInsideCallback) {
   id = q.add(10, 10, [&] {
     if (++n == 3) q.cancel(id);
   });
-  q.fire_due(1000, [](Micros) {});
+  q.fire_due(1000, [](Micros, harvest::rt::TimerId) {});
   EXPECT_EQ(n, 3);
   EXPECT_FALSE(q.next_due().has_value());
 }
@@ -41,7 +41,7 @@ TEST(TimerQueue, APeriodicCallbackKeepsItsOwnStateAcrossFirings) {
   TimerQueue q;
   std::vector<int> seen;
   q.add(10, 10, [&seen, count = 0]() mutable { seen.push_back(++count); });
-  q.fire_due(40, [](Micros) {});
+  q.fire_due(40, [](Micros, harvest::rt::TimerId) {});
   EXPECT_EQ(seen, (std::vector<int>{1, 2, 3, 4}));
 }
 

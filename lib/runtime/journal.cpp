@@ -1,0 +1,76 @@
+#include "runtime/journal.hpp"
+
+#include <algorithm>
+#include <lcm/lcm-cpp.hpp>
+#include <stdexcept>
+
+namespace harvest::rt {
+
+int64_t journal_key(const void* data, std::size_t size) {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](uint8_t b) {
+    h ^= b;
+    h *= 1099511628211ull;
+  };
+  for (int i = 0; i < 8; ++i) mix(static_cast<uint8_t>(size >> (8 * i)));
+  const auto* p = static_cast<const uint8_t*>(data);
+  for (std::size_t i = 0, n = std::min<std::size_t>(size, 256); i < n; ++i) mix(p[i]);
+  return static_cast<int64_t>(h);
+}
+
+void JournalWriter::message(const std::string& channel, const void* data, std::size_t size, Micros t) {
+  if (entries_.empty()) first_ = t;
+  entries_.push_back({false, channel, journal_key(data, size), t});
+}
+
+void JournalWriter::timer(const std::string& label, Micros t) {
+  if (entries_.empty()) first_ = t;
+  entries_.push_back({true, label, 0, t});
+}
+
+node_journal_t JournalWriter::take(Micros now) {
+  node_journal_t m{};
+  m.header.utime = now;
+  m.header.seq = seq_++;
+  m.header.source_seq = -1;
+  m.header.publish_utime = now;
+  m.instance = instance_;
+  std::map<std::string, int32_t> index;
+  for (const auto& e : entries_) {
+    auto [it, added] = index.emplace(e.name, static_cast<int32_t>(m.names.size()));
+    if (added) m.names.push_back(e.name);
+    m.kind.push_back(e.timer ? 1 : 0);
+    m.name.push_back(it->second);
+    m.key.push_back(e.key);
+    m.utime.push_back(e.utime);
+  }
+  m.n_names = static_cast<int32_t>(m.names.size());
+  m.n = static_cast<int32_t>(m.kind.size());
+  entries_.clear();
+  return m;
+}
+
+std::map<std::string, Journal> read_journals(const std::string& log_path, const std::string& prefix) {
+  lcm::LogFile in(log_path, "r");
+  if (!in.good()) throw std::runtime_error("cannot open log " + log_path);
+  std::map<std::string, Journal> out;
+  std::map<std::string, int64_t> next_seq;
+  const std::string channel = prefix + kJournalChannel;
+  for (const lcm::LogEvent* ev = in.readNextEvent(); ev != nullptr; ev = in.readNextEvent()) {
+    if (ev->channel != channel) continue;
+    node_journal_t m;
+    if (m.decode(ev->data, 0, ev->datalen) != ev->datalen) continue;  // a damaged record: counted as missing below
+    Journal& j = out[m.instance];
+    auto [seq, first] = next_seq.emplace(m.instance, m.header.seq);
+    if (!first && m.header.seq > seq->second) j.missing_records += m.header.seq - seq->second;
+    seq->second = m.header.seq + 1;
+    ++j.records;
+    for (int32_t i = 0; i < m.n; ++i) {
+      if (m.name[i] < 0 || m.name[i] >= m.n_names) continue;
+      j.entries.push_back({m.kind[i] == 1, m.names[m.name[i]], m.key[i], m.utime[i]});
+    }
+  }
+  return out;
+}
+
+}  // namespace harvest::rt
