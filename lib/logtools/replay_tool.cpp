@@ -266,6 +266,9 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       for (const auto& c : jr.advertised()) regenerated.insert(jr.full_channel(c));
       std::string line = "  " + b->spec.label + " replayed from its journal (" + std::to_string(j->records) +
                          " records" +
+                         (j->recovered_records > 0
+                              ? ", " + std::to_string(j->recovered_records) + " lost by the logger and recovered"
+                              : std::string()) +
                          (j->missing_records > 0 ? ", " + std::to_string(j->missing_records) + " lost by the logger"
                                                  : std::string()) +
                          "): " + std::to_string(r.messages) + " inputs at their live times, " +

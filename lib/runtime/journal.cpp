@@ -36,7 +36,10 @@ node_journal_t JournalWriter::take(Micros now) {
   m.header.publish_utime = now;
   m.instance = instance_;
   std::map<std::string, int32_t> index;
-  for (const auto& e : entries_) {
+  m.n_repeat = static_cast<int32_t>(previous_.size());
+  std::vector<JournalEntry> all = previous_;
+  all.insert(all.end(), entries_.begin(), entries_.end());
+  for (const auto& e : all) {
     auto [it, added] = index.emplace(e.name, static_cast<int32_t>(m.names.size()));
     if (added) m.names.push_back(e.name);
     m.kind.push_back(e.timer ? 1 : 0);
@@ -46,6 +49,7 @@ node_journal_t JournalWriter::take(Micros now) {
   }
   m.n_names = static_cast<int32_t>(m.names.size());
   m.n = static_cast<int32_t>(m.kind.size());
+  previous_ = std::move(entries_);
   entries_.clear();
   return m;
 }
@@ -62,10 +66,15 @@ std::map<std::string, Journal> read_journals(const std::string& log_path, const 
     if (m.decode(ev->data, 0, ev->datalen) != ev->datalen) continue;  // a damaged record: counted as missing below
     Journal& j = out[m.instance];
     auto [seq, first] = next_seq.emplace(m.instance, m.header.seq);
-    if (!first && m.header.seq > seq->second) j.missing_records += m.header.seq - seq->second;
+    const int64_t lost = first ? m.header.seq : m.header.seq - seq->second;  // records 0.. were before this one
+    if (lost < 0) continue;  // a record seen twice
+    // One lost record is the repeat at the front of this one; more are a gap.
+    const bool recover = lost >= 1 && m.n_repeat > 0;
+    j.recovered_records += recover ? 1 : 0;
+    j.missing_records += recover ? lost - 1 : lost;
     seq->second = m.header.seq + 1;
     ++j.records;
-    for (int32_t i = 0; i < m.n; ++i) {
+    for (int32_t i = recover ? 0 : std::clamp(m.n_repeat, 0, m.n); i < m.n; ++i) {
       if (m.name[i] < 0 || m.name[i] >= m.n_names) continue;
       j.entries.push_back({m.kind[i] == 1, m.names[m.name[i]], m.key[i], m.utime[i]});
     }

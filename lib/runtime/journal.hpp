@@ -48,17 +48,20 @@ class JournalWriter {
  private:
   std::string instance_;
   std::vector<JournalEntry> entries_;
+  std::vector<JournalEntry> previous_;  // repeated in the next record
   Micros first_ = 0;
   int64_t seq_ = 0;
 };
 
-// Every entry of `instance`'s journal records in a log, in order (records
-// are published in order and carry their seq: a record the logger lost is a
-// gap, reported in `missing_records`).
+// Every entry of each instance's journal records in a log, in order (records
+// are published in order and carry their seq; a record the logger lost is
+// taken from the repeat in the next one, `recovered_records`; two in a row
+// are a gap, `missing_records`).
 struct Journal {
   std::vector<JournalEntry> entries;
   int64_t records = 0;
   int64_t missing_records = 0;
+  int64_t recovered_records = 0;
 };
 std::map<std::string, Journal> read_journals(const std::string& log_path, const std::string& prefix);
 
