@@ -56,14 +56,21 @@ void HarvestMachine::end_fruit(int8_t outcome, const std::string& detail, rt::Mi
 
 void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now,
                                 MachineOutput& out) {
+  const rt::Micros selected_at = current_ ? current_->selected_at : now;
   end_fruit(outcome, detail, now, out);
   hand_.forget_fruit();
+  // Given up before the gripper went in (not seen, measured out of reach): the tool is still out of the canopy,
+  // where RETURN would go straight home; the tree is as it was at the selection.
+  if (!retreat && straight() && (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance)
+    return next_from_here(selected_at, now, out);
   head_home(retreat, now, out);
 }
 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
     start_goal(retreat_goal(), State::kRetreat, now, out);
+    // Out of the canopy the next fruit can be turned to straight from there (its aim from home).
+    next_after_retreat_ = straight();
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
@@ -90,6 +97,10 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
         note_ = fruit + ": the turn " + why + " short of its goal, the fruit in view";
         approach_from_ = tool().translation();
         enter(State::kAcquire, now, out);
+      } else if (turning_from_retreat_) {
+        // The way from the end of the retreat is not the way from home: try the turn from home before any verdict.
+        note_ = fruit + ": the turn from the retreat " + why + ", turning from home";
+        start_goal(cfg_.home_pose, State::kReturn, now, out);
       } else if (!current_->from_viewpoint && aim_from_viewpoint(cfg_, current_->estimate)) {
         // Aiming happens outside the canopy: back home, then to the viewpoint.
         note_ = fruit + ": the arm could not turn to it (" + why + "), aiming from a viewpoint";
@@ -159,19 +170,24 @@ void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
     enter(State::kSelect, now, out);
   } else if ((tool().translation() - cfg_.home_pose.translation()).norm() > cfg_.retreat_distance) {
     start_goal(back_along_axis(tool(), std::nullopt, cfg_.retreat_distance), State::kRetreat, now, out);
+    next_after_retreat_ = false;  // from an unknown place: home first
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
 }
 
 void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
-  Selection s = select_fruit(cfg_, *fixed_, ledger_, tool().translation(), now);
-  for (const auto& o : s.rejected) noted(o, out);
-  if (!s.fruit) {
+  if (!take_next(select_fruit(cfg_, *fixed_, ledger_, tool().translation(), now, tool().rotation()), out)) {
     note_ = "no reachable fruit left";
     enter(State::kDone, now, out);
     return;
   }
+  orient(now, out);
+}
+
+bool HarvestMachine::take_next(const Selection& s, MachineOutput& out) {
+  for (const auto& o : s.rejected) noted(o, out);
+  if (!s.fruit) return false;
   current_ = s.fruit;
   ledger_.begin_attempt(current_->id);
   approach_->reset();
@@ -179,10 +195,31 @@ void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
   hand_.forget_fruit();
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
-  orient(now, out);
+  return true;
+}
+
+void HarvestMachine::next_from_here(rt::Micros view_since, rt::Micros now, MachineOutput& out) {
+  // The fixed camera sees the tree whatever the arm does: a view taken since `view_since` (after a pick, the
+  // start of the retreat: the fruit picked gone from it) chooses the next fruit as SELECT at home would, and the
+  // aim is the one from home. From here to there is RETURN's straight line, outside the canopy, turning on the way.
+  if (fixed_ && fixed_rx_ > view_since &&
+      take_next(select_fruit(cfg_, *fixed_, ledger_, cfg_.home_pose.translation(), now, tool().rotation()), out)) {
+    const OrientGoal g = orient_goal(cfg_, cfg_.home_pose, current_->estimate, current_->from_viewpoint);
+    current_->from_viewpoint = g.from_viewpoint;
+    // A viewpoint is reached from home (the way from elsewhere, after another viewpoint, may cross the canopy's
+    // front), or from within retreat_distance of it.
+    if (!g.from_viewpoint || (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance) {
+      start_goal(g.goal, State::kOrient, now, out);
+      turning_from_retreat_ = true;
+      return;
+    }
+  }
+  // No fruit, or no fresh view: SELECT at home decides.
+  start_goal(cfg_.home_pose, State::kReturn, now, out);
 }
 
 void HarvestMachine::orient(rt::Micros now, MachineOutput& out) {
+  turning_from_retreat_ = false;
   const OrientGoal g = orient_goal(cfg_, tool(), current_->estimate, current_->from_viewpoint);
   current_->from_viewpoint = g.from_viewpoint;
   if (g.from_viewpoint || cfg_.orient_law != "thesis_pd") return start_goal(g.goal, State::kOrient, now, out);
@@ -239,7 +276,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
   } else if ((state_ == State::kDetach || state_ == State::kDrop) && !holding) {
     out.gripper = gripper(gripper_command_t::ACTION_OPEN);
     fail_fruit(fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper", false, now, out);
-  } else if (state_ == State::kRelease && msg.state == gripper_state_t::STATE_OPEN && current_) {
+  } else if (state_ == State::kRelease && current_ && released(msg)) {
     end_fruit(fruit_outcome_t::PICKED, "", now, out);
     head_home(approach_from_ && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
   }
@@ -412,11 +449,15 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
       release(now, out);
       break;
     case State::kRetreat:
-      start_goal(cfg_.home_pose, State::kReturn, now, out);
+      if (next_after_retreat_) {
+        next_from_here(entered_at_, now, out);
+      } else {
+        start_goal(cfg_.home_pose, State::kReturn, now, out);
+      }
       break;
     case State::kReturn:
       if (current_) {
-        orient(now, out);  // back from a blocked turn: aim again, from the viewpoint
+        orient(now, out);  // back from a blocked turn, or home on the way to a viewpoint: aim from here
       } else {
         enter(State::kSelect, now, out);
       }

@@ -4,7 +4,8 @@
 //
 //   IDLE -START-> ([RETREAT ->] RETURN, if not at home) -> SELECT -> ORIENT -> ACQUIRE -> APPROACH
 //     -> IR_APPROACH -> GRASP -> DETACH [-> DROP] -> RELEASE [-> RETREAT] -> RETURN -> SELECT ... -> DONE (no reachable
-//     fruit left)
+//     fruit left); with straight_to_next the next fruit is selected at the end of the retreat: RETREAT -> ORIENT
+//     (docs/servo-controller.md, "From one fruit to the next")
 //   failures: APPROACH <-> REACQUIRE -> LOST; IR_APPROACH -> BACKOFF -> IR_APPROACH
 //     -> FAILED_GRASP; each then RETREAT -> RETURN -> SELECT. Faults -> FAULT
 //     (until RESET_FAULT), emergency stop -> ESTOP (latched until cleared).
@@ -43,6 +44,7 @@
 #include "servo/harvest/hand_tracker.hpp"
 #include "servo/harvest/ir_guidance.hpp"
 #include "servo/harvest/orientation_law.hpp"
+#include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
 #include "servo/servo_config.hpp"
@@ -139,6 +141,19 @@ class HarvestMachine {
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
   void select(rt::Micros now, MachineOutput& out);
+  // Makes the selected fruit current (rejections noted); false if none.
+  bool take_next(const Selection& s, MachineOutput& out);
+  // straight_to_next (with the pose-goal ORIENT; the thesis's law turns in place, at home).
+  bool straight() const { return cfg_.straight_to_next && cfg_.orient_law == "pose_goal"; }
+  // Out of the canopy after a fruit (the end of a retreat, or given up before going in): select from a fixed
+  // view newer than `view_since` and ORIENT straight to the aim from home, else RETURN (a viewpoint, no fruit
+  // left, no fresh view: SELECT at home decides).
+  void next_from_here(rt::Micros view_since, rt::Micros now, MachineOutput& out);
+  // RELEASE is over: the gripper OPEN, or OPENING at least release_opening of the way (the fruit is free).
+  bool released(const gripper_state_t& g) const {
+    return g.state == gripper_state_t::STATE_OPEN || (g.state == gripper_state_t::STATE_OPENING &&
+                                                      cfg_.release_opening < 1.0 && g.position >= cfg_.release_opening);
+  }
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis (or the turn was blocked).
   void orient(rt::Micros now, MachineOutput& out);
@@ -190,6 +205,8 @@ class HarvestMachine {
   // Where the approach into the canopy began (the tool at the end of ORIENT):
   // a retreat goes back along the tool axis at least that far.
   std::optional<Eigen::Vector3d> approach_from_;
+  bool next_after_retreat_ = false;    // the retreat under way ends a fruit: select at its end (straight_to_next)
+  bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
 };
 
 }  // namespace harvest::servo

@@ -46,6 +46,8 @@ inline constexpr Key<double> retreat_distance{"retreat_distance", 0.15, {0.0, 1e
 inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
 inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
+inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "select the next fruit at the end of a retreat and turn to it from there (false: home first, the thesis)"};
+inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
 inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
 inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
 inline constexpr Key<double> min_ahead_of_home{"min_ahead_of_home", 0.05, {-10.0, 10.0}, "m", "a target must lie this far ahead of the tool at home, along its axis"};
@@ -67,6 +69,7 @@ inline constexpr Key<double> goal_progress_angle{"goal_progress_angle", 0.01, {1
 inline constexpr Key<double> in_view_margin{"in_view_margin", 0.2, {0.0, 0.49}, "", "an ORIENT blocked with the estimate this far (share of each side) inside the hand image goes on to ACQUIRE"};
 inline constexpr Key<double> sight_aim_margin{"sight_aim_margin", 0.07, {0.0, 0.5}, "rad", "aiming along a line of sight: the hand camera's half field of view less this"};
 inline constexpr config::Choice approach_mode{"approach_mode", "reconstruction", {"reconstruction", "tbz"}, "approach strategy (approach.hpp)"};
+inline constexpr config::Choice fruit_order{"fruit_order", "travel", {"cost", "travel"}, "among fruit of equal standing, the shortest turn from the tool first, or the detector's lowest cost (the thesis)"};
 inline constexpr config::Choice orient_law{"orient_law", "pose_goal", {"pose_goal", "thesis_pd"}, "ORIENT in place: a pose goal the link runs, or the thesis PD law on the aim angles (eq. 6-24)"};
 inline constexpr Key<config::Path> envelope{"envelope", "config/arm/envelope.yaml", {}, "", "the robot envelope (speed and acceleration limits, the box the workspace must lie in)"};
 inline constexpr Key<config::Path> hand_camera_calibration{"hand_camera_calibration", "config/cameras/hand.yaml", {}, "", "the hand camera's intrinsic calibration"};
@@ -202,6 +205,19 @@ struct ServoConfig {
   double pull_distance = servo_keys::pull_distance.fallback;        // [m] detach: pull back along the tool axis ...
   double twist_angle = servo_keys::twist_angle.fallback;        // [rad] ... while twisting about it
   bool release_at_detach = servo_keys::release_at_detach.fallback;      // open the gripper where the pull ended (false: carry it to drop_pose first)
+  // After a pick (or a failure that retreats) the next fruit is selected at
+  // the end of the retreat, out of the canopy, and ORIENT goes straight there
+  // to its aim from home: no stop at home in between. A fruit aimed at from a
+  // viewpoint, and orient_law thesis_pd, still go home first. false: RETURN
+  // home, then SELECT (the thesis's sequence).
+  bool straight_to_next = servo_keys::straight_to_next.fallback;
+  // RELEASE ends once the gripper reports OPENING at least this share of its
+  // full opening (the fruit is free), or OPEN; 1: wait for OPEN.
+  double release_opening = servo_keys::release_opening.fallback;
+  // "travel": among fruit of equal standing (attempts, plausible depth) the
+  // one whose aim from home is the smallest turn from the tool's orientation
+  // first; "cost": the detector's cost (the thesis).
+  std::string fruit_order{servo_keys::fruit_order.fallback};
   int max_attempts_per_fruit = servo_keys::max_attempts_per_fruit.fallback;     // attempts per fruit in total; a failed one is retried after every untried one
   double association_gate_px = servo_keys::association_gate_px.fallback;  // hand detection must lie this close to the predicted pixel
   double min_ahead_of_home = servo_keys::min_ahead_of_home.fallback;    // [m] a target must lie this far ahead of the tool at home, along its axis

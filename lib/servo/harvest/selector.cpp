@@ -3,14 +3,26 @@
 #include <algorithm>
 #include <tuple>
 
+#include "servo/geometry.hpp"
 #include "servo/harvest/aiming.hpp"
 
 namespace harvest::servo {
 
 Selection select_fruit(const ServoConfig& cfg, const targets_t& view, FruitLedger& ledger,
-                       const Eigen::Vector3d& tool_position, rt::Micros now) {
+                       const Eigen::Vector3d& aim_from, rt::Micros now,
+                       const std::optional<Eigen::Matrix3d>& travel_from) {
   Selection out;
   const target_t* best = nullptr;
+  double best_key = 0.0;
+  // Every fruit is aimed at from home: the turn to it from where the tool
+  // points now is the travel before the hand camera sees it.
+  const bool by_travel = cfg.fruit_order == "travel" && travel_from;
+  auto order_key = [&](const target_t& t, const Fruit& f) {
+    if (!by_travel) return static_cast<double>(t.cost);
+    Eigen::Isometry3d home = cfg.home_pose;
+    home.translation() = aim_from;
+    return rotation_distance(*travel_from, aim_rotation(home, f.estimate));
+  };
   for (const auto& t : view.targets) {
     const Eigen::Vector3d p(t.position_base[0], t.position_base[1], t.position_base[2]);
     const Eigen::Vector3d camera(view.camera_position_base[0], view.camera_position_base[1],
@@ -34,18 +46,19 @@ Selection select_fruit(const ServoConfig& cfg, const targets_t& view, FruitLedge
         const char* why = view.camera_known           ? "out of reach along its whole line of sight"
                           : cfg.workspace.contains(p) ? "not ahead of the gripper at home"
                                                       : "outside the reachable workspace";
-        out.rejected.push_back(
-            ledger.record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, why, 0.0, tool_position, nullptr));
+        out.rejected.push_back(ledger.record(fruit_outcome_t::UNREACHABLE, t.fruit_id, p, why, 0.0, aim_from, nullptr));
         continue;
       }
       const double s = std::clamp((p - f.sight->origin).dot(f.sight->direction), f.sight->near, f.sight->far);
-      f.estimate = sight_aim(cfg, *f.sight, s, tool_position);
+      f.estimate = sight_aim(cfg, *f.sight, s, aim_from);
       f.depth_doubtful = true;
     }
+    const double key = order_key(t, f);
     if (best == nullptr ||
-        std::make_tuple(ledger.attempts(t.fruit_id), f.depth_doubtful, t.cost, t.fruit_id) <
-            std::make_tuple(ledger.attempts(best->fruit_id), out.fruit->depth_doubtful, best->cost, best->fruit_id)) {
+        std::make_tuple(ledger.attempts(t.fruit_id), f.depth_doubtful, key, t.fruit_id) <
+            std::make_tuple(ledger.attempts(best->fruit_id), out.fruit->depth_doubtful, best_key, best->fruit_id)) {
       best = &t;
+      best_key = key;
       out.fruit = f;
     }
   }

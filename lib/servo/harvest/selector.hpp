@@ -22,12 +22,15 @@ struct Selection {
 // Among the view's targets the ledger lets be selected: fruit tried fewer
 // times first (a fruit whose attempt failed is tried again after every
 // untried one: what made it fail is often a neighbour, gone by then), then
-// those whose fixed-camera estimate is pickable, then by lowest cost, then
+// those whose fixed-camera estimate is pickable, then (fruit_order "cost")
+// by lowest cost or ("travel", with `travel_from`) by the smallest turn from
+// the tool orientation `travel_from` to the fruit's aim from home, then
 // lowest id. A target whose estimate is not pickable is aimed at along its
 // line of sight (depth doubtful); one with no pickable point on it is
 // recorded UNREACHABLE in the ledger for good. The chosen fruit's attempt
-// is not counted here.
+// is not counted here. `aim_from` is where the gripper aims from (home).
 Selection select_fruit(const ServoConfig& cfg, const targets_t& view, FruitLedger& ledger,
-                       const Eigen::Vector3d& tool_position, rt::Micros now);
+                       const Eigen::Vector3d& aim_from, rt::Micros now,
+                       const std::optional<Eigen::Matrix3d>& travel_from = std::nullopt);
 
 }  // namespace harvest::servo

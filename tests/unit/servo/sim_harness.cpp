@@ -108,7 +108,8 @@ void WorldDouble::on_attach() {
       closing_since_ = now();
       close_position_ = arm_.tool().translation();
     } else if (c.action == gripper_command_t::ACTION_OPEN && !spec_.gripper_wont_open) {
-      gripper_ = gripper_state_t::STATE_OPEN;
+      gripper_ = spec_.gripper_open_s > 0.0 ? gripper_state_t::STATE_OPENING : gripper_state_t::STATE_OPEN;
+      opening_since_ = now();
       for (auto& w : where_)
         if (w == Where::kGripper) w = Where::kDropped;
     }
@@ -284,13 +285,18 @@ void WorldDouble::publish_gripper() {
     for (auto& w : where_)
       if (w == Where::kGripper) w = Where::kFallen;
   }
+  const double opened =
+      spec_.gripper_open_s > 0.0 ? rt::to_seconds(now() - opening_since_) / spec_.gripper_open_s : 1.0;
+  if (gripper_ == gripper_state_t::STATE_OPENING && opened >= 1.0) gripper_ = gripper_state_t::STATE_OPEN;
   gripper_state_t s{};
   s.header.utime = now();
   s.header.frame_id = "gripper";
   s.header.source_seq = -1;
   const bool gone = spec_.gripper_disconnect_after_s && since_start() >= *spec_.gripper_disconnect_after_s;
   s.state = gone ? gripper_state_t::STATE_DISCONNECTED : faulty ? gripper_state_t::STATE_FAULT : gripper_;
-  s.position = gripper_ == gripper_state_t::STATE_OPEN ? 1.0f : 0.0f;
+  s.position = gripper_ == gripper_state_t::STATE_OPEN      ? 1.0f
+               : gripper_ == gripper_state_t::STATE_OPENING ? static_cast<float>(opened)
+                                                            : 0.0f;
   s.connected = !gone;
   s.fault_code = faulty ? 7 : 0;
   s.fault_text = faulty ? "motor overcurrent" : "";

@@ -81,6 +81,9 @@ struct WorldSpec {
   std::optional<double> robot_estop_after_s;         // the robot link reports MODE_ESTOP (and stops)
   std::optional<double> gripper_disconnect_after_s;  // the end-effector board goes away
   bool gripper_wont_open = false;                    // an OPEN command is never carried out
+  // > 0: the gripper opens over this long, reporting OPENING and its opening
+  // (0..1) on the way, OPEN at the end; a held fruit drops at once. 0: OPEN at once.
+  double gripper_open_s = 0.0;
   std::optional<double> robot_silent_after_s;
 };
 
@@ -136,6 +139,7 @@ class WorldDouble final : public rt::Node {
   rt::Micros closing_since_ = 0;
   int closures_ = 0;
   rt::Micros holding_since_ = 0;
+  rt::Micros opening_since_ = 0;
   std::optional<Eigen::Vector3d> close_position_;
 };
 

@@ -94,6 +94,7 @@ TEST(ClosedLoop, FruitInFrontBesideTheGripperAxisIsNeitherGraspedNorPushedPast) 
   spec.fruits.push_back({2, in_front, 0.075});
   ServoConfig cfg = test_config();
   cfg.max_attempts_per_fruit = 2;
+  cfg.fruit_order = "cost";  // the order this test is about
   Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();

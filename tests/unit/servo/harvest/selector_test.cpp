@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "config/config.hpp"
+#include "servo/geometry.hpp"
 #include "servo/harvest/aiming.hpp"
 
 namespace harvest::servo {
@@ -74,6 +75,32 @@ TEST(SelectFruit, UntriedFruitComeBeforeAFailedOneAndPlausibleDepthsBeforeDoubtf
   const double along = (s.fruit->estimate - line.origin).dot(line.direction);
   EXPECT_LT((line.at(along) - s.fruit->estimate).norm(), 1e-9);  // on the line of sight
   EXPECT_EQ(s.fruit->selected_from, far);
+}
+
+// fruit_order travel: among fruit of equal standing, the one whose aim from
+// home is the smallest turn from where the tool points; cost: the detector's.
+TEST(SelectFruit, ByTravelTheSmallestTurnFromTheToolComesFirst) {
+  ServoConfig c = defaults();
+  ASSERT_EQ(c.fruit_order, "travel");
+  const Eigen::Vector3d nearly_ahead(-0.6, 1.0, -0.25), aside(-0.3, 1.0, -0.25);
+  View v;
+  v.add(7, nearly_ahead, 2.0f).add(4, aside, 1.0f);
+  FruitLedger l = ledger();
+  const Eigen::Matrix3d at_home = c.home_pose.linear();
+  EXPECT_EQ(select_fruit(c, v.msg, l, kHome, 0, at_home).fruit->id, 7);
+  // Turned toward the other one (the end of its retreat): that one is the shorter way.
+  Eigen::Isometry3d home = c.home_pose;
+  home.translation() = kHome;
+  const Eigen::Matrix3d toward_aside = aim_rotation(home, aside + Eigen::Vector3d(0.05, 0.0, 0.0));
+  EXPECT_EQ(select_fruit(c, v.msg, l, kHome, 0, toward_aside).fruit->id, 4);
+  // Without the tool's orientation, or ordered by cost: the cheaper one.
+  EXPECT_EQ(select_fruit(c, v.msg, l, kHome, 0).fruit->id, 4);
+  c.fruit_order = "cost";
+  EXPECT_EQ(select_fruit(c, v.msg, l, kHome, 0, at_home).fruit->id, 4);
+  // Attempts still come first.
+  c.fruit_order = "travel";
+  l.begin_attempt(7);
+  EXPECT_EQ(select_fruit(c, v.msg, l, kHome, 0, at_home).fruit->id, 4);
 }
 
 TEST(SelectFruit, ATargetOutOfReachAlongItsWholeLineOfSightIsUnreachableForGood) {
