@@ -57,7 +57,7 @@ class MasterWithDrives : public ::testing::Test {
       drives_->drain(now_);
     }
   }
-  // The whole host freezes (a virtual machine's CPU quota; up to ~104 ms seen on the test machine): neither the
+  // The whole host freezes (a virtual machine's CPU quota; up to ~130 ms seen on the test machine): neither the
   // master nor the drives run for `seconds`, and no frame crosses the bus.
   void freeze(double seconds) { now_ += static_cast<canopen::Micros>(seconds * 1e6); }
   // Drives with these settings in place of the fixture's.
