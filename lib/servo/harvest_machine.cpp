@@ -61,7 +61,9 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
   hand_.forget_fruit();
   // Given up before the gripper went in (not seen, measured out of reach): the tool is still out of the canopy,
   // where RETURN would go straight home; the tree is as it was at the selection.
-  if (!retreat && straight() && (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance)
+  const bool before_going_in = state_ == State::kOrient || state_ == State::kAcquire || state_ == State::kApproach;
+  if (!retreat && before_going_in && straight() &&
+      (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance)
     return next_from_here(selected_at, now, out);
   head_home(retreat, now, out);
 }
