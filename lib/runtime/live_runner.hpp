@@ -37,6 +37,7 @@ class LiveRunner final : public Dispatcher {
   // While a handler or timer callback runs, the moment it began: every now()
   // in it reads the same value, the one the journal records.
   Micros now() const override { return event_time_ ? *event_time_ : clock_.now(); }
+  Micros publish_time() const override { return clock_.now(); }
   void publish_bytes(const std::string& channel, const void* data, std::size_t size) override;
   void watch_fd(int fd, std::function<void()> on_readable) override;
   void unwatch_fd(int fd) override;

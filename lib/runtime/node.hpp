@@ -36,6 +36,9 @@ class Context {
  public:
   virtual ~Context() = default;
   virtual Micros now() const = 0;
+  // When a message goes out (header.publish_utime): live, the clock at that moment, not the handler's fixed
+  // now(), so a log tells a node's processing time (harvest-log latency); on logical time, now().
+  virtual Micros publish_time() const { return now(); }
   virtual void publish_bytes(const std::string& channel, const void* data, std::size_t size) = 0;
   virtual void subscribe_bytes(const std::string& channel, RawHandler handler) = 0;
   // Declares that a node publishes on `channel`. Replay uses it to know which
@@ -205,7 +208,7 @@ template <LcmMessage Msg, class Finish>
 void Node::publish(const std::string& channel, Msg& msg, Finish&& finish) {
   if constexpr (HasHeader<Msg>) {
     msg.header.seq = next_seq_[channel]++;
-    msg.header.publish_utime = now();
+    msg.header.publish_utime = ctx().publish_time();
   }
   finish(msg);
   std::vector<uint8_t> bytes(static_cast<std::size_t>(msg.getEncodedSize()));
