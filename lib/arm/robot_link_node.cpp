@@ -283,8 +283,7 @@ Eigen::VectorXd RobotLinkNode::shut_down(bool enabled, double dt) {
 void RobotLinkNode::log_own_stalls(Micros t) {
   const rt::AwakeClock& awake = hardware_.master().awake();
   if (awake.stalls() == stalls_seen_) return;
-  stalls_seen_ = awake.stalls();
-  count("own_stalls");
+  stalls_seen_ = awake.stalls();  // counted by the master (can_own_stalls in the heartbeat)
   int64_t unlogged = 0;
   Micros since = 0;
   if (!stall_log_.admit(t, unlogged, since)) return;

@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "runtime/log_io.hpp"
+
 namespace harvest::rt {
 
 LiveRunner::LiveRunner(LiveOptions options) : Dispatcher(options.prefix), options_(std::move(options)) {
@@ -57,9 +59,7 @@ void LiveRunner::on_lcm_message(const lcm::ReceiveBuffer* rbuf, const std::strin
 
 void LiveRunner::flush_journal(bool force) {
   if (!journal_ || journal_->empty() || !(force || journal_->due(clock_.now()))) return;
-  const node_journal_t m = journal_->take(clock_.now());
-  std::vector<uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
-  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  const std::vector<uint8_t> buf = encode(journal_->take(clock_.now()));
   publish_bytes(kJournalChannel, buf.data(), buf.size());
 }
 
