@@ -17,7 +17,9 @@
 // twice the configured period, at most 5 % of the time in gaps longer than
 // that, and at least half the expected number of SYNC frames sent (the shared
 // 2-core test machine preempts any process now and then, so single gaps are
-// printed, not asserted). The link stays up with the same pid, nothing
+// printed, not asserted). The test machine's host also freezes its vCPUs for
+// up to ~130 ms when busy (a flood makes it busy): time when a probe saw a CPU
+// frozen (HostFreezes) is not the link's and is taken out of the gaps. The link stays up with the same pid, nothing
 // faults, nothing but the signed slowest goal could move the arm, and the
 // refusals are counted.
 #include <gtest/gtest.h>
@@ -42,6 +44,7 @@
 
 #include "arm_watch.hpp"
 #include "can/can_bus.hpp"
+#include "host_freezes.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/clock.hpp"
 #include "runtime/log_io.hpp"
@@ -100,18 +103,28 @@ class SyncClock {
 struct Period {
   std::size_t frames = 0;
   double expected = 0, median_ms = 0, p99_ms = 0, max_ms = 0;
-  double stalled = 0;  // share of the window spent in gaps longer than 2 periods
+  double stalled = 0;  // share of the window spent in gaps longer than 2 periods, host freezes taken out
+  double stalled_raw = 0;  // the same with the freezes in
+  double frozen = 0;       // share of the window in which the host had a CPU frozen
 };
 
-Period period_of(const std::vector<int64_t>& t, int64_t from, int64_t to) {
+Period period_of(const std::vector<int64_t>& t, int64_t from, int64_t to, const ht::HostFreezes& host) {
   Period p;
   p.frames = t.size();
   p.expected = static_cast<double>(to - from) / kSyncPeriodUs;
+  const auto window = static_cast<double>(to - from);
+  p.frozen = static_cast<double>(host.frozen_between(from, to)) / window;
+  std::vector<std::pair<int64_t, int64_t>> spans;  // [previous SYNC, next SYNC)
+  for (std::size_t i = 1; i < t.size(); ++i) spans.emplace_back(t[i - 1], t[i]);
+  if (t.empty()) spans.emplace_back(from, to);
   std::vector<int64_t> gaps;
-  for (std::size_t i = 1; i < t.size(); ++i) gaps.push_back(t[i] - t[i - 1]);
-  if (t.empty()) gaps.push_back(to - from);
-  for (int64_t g : gaps)
-    if (g > 2 * kSyncPeriodUs) p.stalled += static_cast<double>(g) / static_cast<double>(to - from);
+  for (const auto& [a, b] : spans) {
+    const int64_t g = b - a;
+    gaps.push_back(g);
+    if (g > 2 * kSyncPeriodUs) p.stalled_raw += static_cast<double>(g) / window;
+    const int64_t own = g - host.frozen_between(a, b);
+    if (own > 2 * kSyncPeriodUs) p.stalled += static_cast<double>(own) / window;
+  }
   std::sort(gaps.begin(), gaps.end());
   p.median_ms = gaps[gaps.size() / 2] / 1000.0;
   p.p99_ms = gaps[std::min(gaps.size() - 1, gaps.size() * 99 / 100)] / 1000.0;
@@ -122,8 +135,9 @@ Period period_of(const std::vector<int64_t>& t, int64_t from, int64_t to) {
 void print(const char* what, const Period& p) {
   std::printf(
       "%s: %zu SYNC frames of %.0f expected, interval median %.2f ms, p99 %.2f ms, max %.2f ms, %.1f %% of the "
-      "time in gaps over 2 periods\n",
-      what, p.frames, p.expected, p.median_ms, p.p99_ms, p.max_ms, 100.0 * p.stalled);
+      "time in gaps over 2 periods (%.1f %% with the host's freezes in; a CPU frozen %.1f %% of the time)\n",
+      what, p.frames, p.expected, p.median_ms, p.p99_ms, p.max_ms, 100.0 * p.stalled, 100.0 * p.stalled_raw,
+      100.0 * p.frozen);
 }
 
 // The flood's messages, already encoded where they need no fresh signature.
@@ -223,6 +237,7 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
   const std::string bus = "udp_multicast:239.74.166." + std::to_string(10 + pid % 200) + ":" +
                           std::to_string(57000 + (pid * 13) % 4000) + "?ttl=0";
   const std::string url = ht::unique_lcm_url();
+  ht::HostFreezes host;
   SyncClock sync(bus);
   ht::ArmWatch watch(url);
   ASSERT_TRUE(watch.good());
@@ -264,15 +279,16 @@ TEST(Flood, TheLinksSyncKeepsItsPeriodWithin2xAndTheArmStaysStill) {
   const int64_t flood_to = rt::wall_time_now();
   std::this_thread::sleep_for(300ms);
 
-  const Period rest = period_of(sync.between(rest_from, flood_from), rest_from, flood_from);
-  const Period flooded = period_of(sync.between(flood_from, flood_to), flood_from, flood_to);
+  const Period rest = period_of(sync.between(rest_from, flood_from), rest_from, flood_from, host);
+  const Period flooded = period_of(sync.between(flood_from, flood_to), flood_from, flood_to, host);
   std::printf("flood: %zu messages in %.2f s (%.0f per second)\n", sent, (flood_to - flood_from) / 1e6,
               sent / ((flood_to - flood_from) / 1e6));
   print("at rest", rest);
   print("under flood", flooded);
   // Within 2x: the median interval, and all but 5 % of the time (a stall in
   // a handler shows as long gaps: 7 % of one run with the dry run unsliced;
-  // the scheduler of a loaded machine alone makes a few).
+  // the scheduler of a loaded machine alone makes a few; the host's freezes,
+  // 6.9 % of one CI run's flood with a 113 ms one, are taken out).
   EXPECT_LE(flooded.median_ms, 2.0 * kSyncPeriodUs / 1000.0);
   EXPECT_LE(flooded.stalled, 0.05);
   EXPECT_GE(static_cast<double>(flooded.frames), 0.5 * flooded.expected);
