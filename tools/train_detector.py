@@ -64,35 +64,47 @@ def normalise(rgb_u8):
     return torch.from_numpy(rgb_u8.astype(np.float32) / 127.5 - 1.0).permute(2, 0, 1)
 
 
+SCORED_VISIBLE = 0.5  # a rendered fruit less visible is neither found nor missed (box_evaluation.hpp)
+
+
 def load(data, width):
+    """Images of a folder with boxes.csv (image,img_w,img_h,x1,y1,x2,y2[,visible]) scaled to `width`:
+    [(name, HxWx3 uint8 RGB, N x 5 boxes x1 y1 x2 y2 visible)]. Photos have no visible column: 1."""
     rows = {}
     with open(os.path.join(data, "boxes.csv")) as f:
         for r in csv.DictReader(f):
-            rows.setdefault(r["image"], []).append([float(r[k]) for k in ("x1", "y1", "x2", "y2")])
+            rows.setdefault(r["image"], []).append(
+                [float(r[k]) for k in ("x1", "y1", "x2", "y2")] + [float(r.get("visible") or 1.0)])
     items = []
     for name in sorted(rows):
         im = Image.open(os.path.join(data, "images", name)).convert("RGB")
         s = width / im.width
         h = int(round(im.height * s))
         im = im.resize((width, h), Image.BILINEAR)
-        items.append((name, np.asarray(im), np.array(rows[name]) * s))
+        items.append((name, np.asarray(im), np.array(rows[name]) * np.array([s, s, s, s, 1.0])))
     return items
 
 
 def targets(h, w, boxes):
-    """Heatmap (Gaussian per centre), log-diameter and its weight, mask, all at 1/4 resolution."""
+    """Heatmap (Gaussian per centre), log-diameter and its weight, mask, and where the heatmap is not
+    penalised (a rendered fruit less than SCORED_VISIBLE visible: neither fruit nor background), all at
+    1/4 resolution."""
     H, W = h // STRIDE, w // STRIDE
     heat = np.zeros((H, W), np.float32)
     diam = np.zeros((H, W), np.float32)
     wdiam = np.zeros((H, W), np.float32)
     mask = np.zeros((H, W), np.float32)
+    ignore = np.zeros((H, W), np.float32)
     ys, xs = np.mgrid[0:H, 0:W].astype(np.float32)
     xs, ys = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE  # cell centres in input pixels
-    for x1, y1, x2, y2 in boxes:
+    for x1, y1, x2, y2, visible in boxes:
         cx, cy, bw, bh = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
         if bw < 2 or bh < 2:
             continue
         d = (bw + bh) / 2
+        if visible < SCORED_VISIBLE:
+            ignore[((xs - cx) / (bw / 2)) ** 2 + ((ys - cy) / (bh / 2)) ** 2 <= 1] = 1
+            continue
         sigma = max(STRIDE * 0.75, d / 8)
         g = np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma**2))
         heat = np.maximum(heat, g)
@@ -101,7 +113,8 @@ def targets(h, w, boxes):
         wdiam[near] = np.maximum(wdiam[near], g[near])
         inside = ((xs - cx) / (bw / 2)) ** 2 + ((ys - cy) / (bh / 2)) ** 2 <= 1
         mask[inside] = 1
-    return heat, diam, wdiam, mask
+    ignore[heat > 0.05] = 0  # a visible fruit's own peak always counts
+    return heat, diam, wdiam, mask, ignore
 
 
 def jitter(img, rng):
@@ -121,29 +134,30 @@ def sample(item, crop, rng):
     nw, nh = max(crop, int(w * s)), max(crop, int(h * s))
     s_x, s_y = nw / w, nh / h
     im = np.asarray(Image.fromarray(img).resize((nw, nh), Image.BILINEAR))
-    b = boxes * np.array([s_x, s_y, s_x, s_y])
+    b = boxes * np.array([s_x, s_y, s_x, s_y, 1.0])
     x0, y0 = rng.integers(0, nw - crop + 1), rng.integers(0, nh - crop + 1)
     im = im[y0 : y0 + crop, x0 : x0 + crop]
-    b = b - np.array([x0, y0, x0, y0])
+    b = b - np.array([x0, y0, x0, y0, 0.0])
     if rng.random() < 0.5:
         im = im[:, ::-1]
-        b = np.stack([crop - b[:, 2], b[:, 1], crop - b[:, 0], b[:, 3]], axis=1)
+        b = np.stack([crop - b[:, 2], b[:, 1], crop - b[:, 0], b[:, 3], b[:, 4]], axis=1)
     # keep boxes whose centre lies in the crop (a cut fruit keeps its full-size box: the diameter is the fruit's)
-    c = (b[:, :2] + b[:, 2:]) / 2
+    c = (b[:, :2] + b[:, 2:4]) / 2
     b = b[(c[:, 0] >= 0) & (c[:, 0] < crop) & (c[:, 1] >= 0) & (c[:, 1] < crop)]
     return jitter(np.ascontiguousarray(im), rng), b
 
 
-def focal(logit, heat):
+def focal(logit, heat, ignore):
     p = torch.sigmoid(logit).clamp(1e-4, 1 - 1e-4)
     pos = heat.eq(1).float() + (heat > 0.95).float() * (1 - heat.eq(1).float())
-    neg = 1 - pos
+    neg = (1 - pos) * (1 - ignore)
     lp = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
     ln = -(torch.log(1 - p) * p**2 * (1 - heat) ** 4 * neg).sum()
     return (lp + ln) / pos.sum().clamp(min=1)
 
 
-def train(items, steps, seed, crop=160, batch=12, log=print):
+def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0.0):
+    """`sim`: rendered frames (harvest-sim-frames), drawn for a share `sim_share` of each batch's samples."""
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     net = FruitNet()
@@ -154,15 +168,16 @@ def train(items, steps, seed, crop=160, batch=12, log=print):
     for step in range(steps):
         xs, ts = [], []
         for _ in range(batch):
-            im, b = sample(items[rng.integers(len(items))], crop, rng)
+            pool = sim if sim and rng.random() < sim_share else items
+            im, b = sample(pool[rng.integers(len(pool))], crop, rng)
             xs.append(normalise(im))
             ts.append([torch.from_numpy(t) for t in targets(crop, crop, b)])
         x = torch.stack(xs)
-        heat, diam, wd, mask = (torch.stack([t[i] for t in ts]) for i in range(4))
+        heat, diam, wd, mask, ignore = (torch.stack([t[i] for t in ts]) for i in range(5))
         out = net(x)
-        lh = focal(out[:, 0], heat)
+        lh = focal(out[:, 0], heat, ignore)
         ld = (F.smooth_l1_loss(out[:, 1], diam, reduction="none", beta=0.1) * wd).sum() / wd.sum().clamp(min=1)
-        lm = F.binary_cross_entropy_with_logits(out[:, 2], mask)
+        lm = (F.binary_cross_entropy_with_logits(out[:, 2], mask, reduction="none") * (1 - ignore)).mean()
         loss = lh + 2 * ld + lm
         opt.zero_grad()
         loss.backward()
@@ -198,7 +213,7 @@ def match(dets, boxes):
     used, pairs = set(), []
     for i, (u, v, d, s) in sorted(enumerate(dets), key=lambda e: -e[1][3]):
         best, bd = -1, 1e18
-        for j, (x1, y1, x2, y2) in enumerate(boxes):
+        for j, (x1, y1, x2, y2, _) in enumerate(boxes):
             if j in used or not (x1 <= u <= x2 and y1 <= v <= y2):
                 continue
             dd = (u - (x1 + x2) / 2) ** 2 + (v - (y1 + y2) / 2) ** 2
@@ -223,9 +238,13 @@ def score(net, items):
             img = pad4(img)
             dets = decode(net(normalise(img)[None])[0])
             pairs = match(dets, boxes)
-            tp, nd, nb = tp + len(pairs), nd + len(dets), nb + len(boxes)
+            hidden = {j for _, j in pairs if boxes[j][4] < SCORED_VISIBLE}  # neither found nor missed
+            pairs = [(i, j) for i, j in pairs if j not in hidden]
+            tp = tp + len(pairs)
+            nd = nd + len(dets) - len(hidden)
+            nb = nb + int((boxes[:, 4] >= SCORED_VISIBLE).sum())
             for i, j in pairs:
-                x1, y1, x2, y2 = boxes[j]
+                x1, y1, x2, y2, _ = boxes[j]
                 u, v, d, _ = dets[i]
                 bd = (x2 - x1 + y2 - y1) / 2
                 cerr.append(math.hypot(u - (x1 + x2) / 2, v - (y1 + y2) / 2) / bd)
@@ -249,12 +268,29 @@ def main():
     ap.add_argument("--seed", type=int, default=19)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--folds-only", action="store_true", help="skip the final model on all photos")
+    ap.add_argument("--sim", action="append", default=[],
+                    help="folder of rendered frames (harvest-sim-frames) added to every model's training set")
+    ap.add_argument("--sim-share", type=float, default=0.4, help="share of training samples drawn from --sim")
+    ap.add_argument("--sim-test", help="folder of other rendered frames: every model is also scored on them")
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
     random.seed(a.seed)
     items = load(a.data, a.width)
     print(f"{len(items)} photos, {sum(len(b) for _, _, b in items)} boxes, width {a.width}", flush=True)
     log = lambda s: print(s, flush=True)
+    sim = [it for d in a.sim for it in load(d, a.width)]
+    sim_test = load(a.sim_test, a.width) if a.sim_test else []
+    if sim:
+        log(f"{len(sim)} rendered frames, {sum(len(b) for _, _, b in sim)} fruit, {a.sim_share:.0%} of samples")
+
+    def report(what, r):
+        tp, nd, nb, ce, de = r
+        R, P = tp / max(nb, 1), tp / max(nd, 1)
+        log(f"{what}: R {R:.3f} P {P:.3f} F1 {2 * R * P / max(R + P, 1e-9):.3f} ({tp} of {nb} fruit, {nd} detections); "
+            f"centre error median {np.median(ce) if ce else float('nan'):.3f} D, "
+            f"diameter error median {np.median(de) if de else float('nan'):.3f} D")
+
+    train_with = lambda photos, seed: train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share)
     if a.folds:
         order = list(range(len(items)))
         random.Random(a.seed).shuffle(order)
@@ -268,20 +304,24 @@ def main():
         for k in range(a.folds):
             test = set(order[k :: a.folds])
             log(f"fold {k}: {len(test)} test photos: " + " ".join(items[i][0] for i in sorted(test)))
-            net = train([it for i, it in enumerate(items) if i not in test], a.steps, a.seed + 1 + k, log=log)
+            net = train_with([it for i, it in enumerate(items) if i not in test], a.seed + 1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
             r = score(net, [items[i] for i in sorted(test)])
             for i in range(5):
                 tot[i] += r[i]
             log(f"fold {k}: R {r[0] / max(r[2], 1):.3f} P {r[0] / max(r[1], 1):.3f} ({r[0]} of {r[2]} boxes, {r[1]} detections)")
+            if sim_test:
+                report(f"fold {k} on rendered frames", score(net, sim_test))
         tp, nd, nb, ce, de = tot
         R, P = tp / nb, tp / max(nd, 1)
         log(f"cross-validated ({a.folds}-fold): R {R:.3f} P {P:.3f} F1 {2 * R * P / max(R + P, 1e-9):.3f}; "
             f"centre error median {np.median(ce):.3f} D, diameter error median {np.median(de):.3f} D")
     if a.folds_only:
         return
-    net = train(items, a.steps, a.seed, log=log)
+    net = train_with(items, a.seed)
     export(net, a.out)
+    if sim_test:
+        report("final model on rendered frames", score(net, sim_test))
     log(f"wrote {a.out} ({os.path.getsize(a.out)} bytes)")
 
 

@@ -104,7 +104,9 @@ int run_process(int argc, char** argv, const std::string& process, const NodeFac
 
   if (!keep_freed_memory()) spdlog::warn("the allocator refused its settings: large blocks are unmapped when freed");
   try {
-    LiveOptions live{lcm_url, prefix};
+    LiveOptions live;
+    live.lcm_url = lcm_url;
+    live.prefix = prefix;
     if (!no_journal) live.journal_instance = instance;
     LiveRunner runner(live);
     std::string cmdline;

@@ -51,6 +51,18 @@ DetectionBox detection_box(const Fruit& f) {
            static_cast<double>(f.bbox.y + f.bbox.height)}};
 }
 
+EvalCounts score_matches(const std::vector<int>& match, const std::vector<BoxF>& boxes) {
+  EvalCounts c;
+  c.images = 1;
+  for (const BoxF& b : boxes) c.boxes += b.visible >= kScoredVisible;
+  for (int m : match) {
+    if (m >= 0 && boxes[static_cast<std::size_t>(m)].visible < kScoredVisible) continue;
+    ++c.detections;
+    c.true_positives += m >= 0;
+  }
+  return c;
+}
+
 std::vector<std::pair<std::string, std::vector<BoxF>>> read_boxes_csv(const std::filesystem::path& csv) {
   std::ifstream in(csv);
   if (!in) throw std::runtime_error("cannot read " + csv.string());
@@ -66,11 +78,13 @@ std::vector<std::pair<std::string, std::vector<BoxF>>> read_boxes_csv(const std:
     for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
     BoxF b{};
     try {
-      if (cells.size() != 7) throw std::invalid_argument("columns");
+      if (cells.size() != 7 && cells.size() != 8) throw std::invalid_argument("columns");
       b = {std::stod(cells[3]), std::stod(cells[4]), std::stod(cells[5]), std::stod(cells[6])};
+      if (cells.size() == 8) b.visible = std::stod(cells[7]);
+      if (!(b.visible >= 0.0 && b.visible <= 1.0)) throw std::invalid_argument("visible");
     } catch (const std::exception&) {
       throw std::runtime_error(csv.string() + ":" + std::to_string(number) +
-                               ": expected image,img_w,img_h,x1,y1,x2,y2");
+                               ": expected image,img_w,img_h,x1,y1,x2,y2[,visible in 0..1]");
     }
     if (out.empty() || out.back().first != cells[0]) {
       auto it = std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == cells[0]; });

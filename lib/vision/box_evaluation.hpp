@@ -15,6 +15,9 @@ namespace harvest::vision {
 
 struct BoxF {
   double x1, y1, x2, y2;  // pixel corners
+  // Share of the fruit's silhouette that is visible (rendered frames know it,
+  // docs/perception.md "Rendered training frames"; annotated photos: 1).
+  double visible = 1.0;
   double area() const { return std::max(0.0, x2 - x1) * std::max(0.0, y2 - y1); }
 };
 double iou(const BoxF& a, const BoxF& b);
@@ -41,8 +44,17 @@ struct EvalCounts {
   double recall() const { return boxes ? static_cast<double>(true_positives) / boxes : 0.0; }
 };
 
-// Annotations of a CSV "image,img_w,img_h,x1,y1,x2,y2" (header line first),
-// grouped by image in file order. Throws std::runtime_error naming the file and line.
+// A fruit less visible than this is neither missed nor found: a detection on
+// it does not count, and no detection on it is no miss (as an unboxed fruit
+// in a photo would be, were it boxed).
+inline constexpr double kScoredVisible = 0.5;
+
+// One image's tallies from match_boxes' result.
+EvalCounts score_matches(const std::vector<int>& match, const std::vector<BoxF>& boxes);
+
+// Annotations of a CSV "image,img_w,img_h,x1,y1,x2,y2[,visible]" (header line
+// first), grouped by image in file order. Throws std::runtime_error naming the
+// file and line.
 std::vector<std::pair<std::string, std::vector<BoxF>>> read_boxes_csv(const std::filesystem::path& csv);
 
 }  // namespace harvest::vision

@@ -170,22 +170,23 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     for (std::size_t i = 0; i < match.size(); ++i) {
       if (match[i] < 0) continue;
       const BoxF& b = boxes[static_cast<std::size_t>(match[i])];
+      if (b.visible < kScoredVisible) continue;
       const double side = 0.5 * ((b.x2 - b.x1) + (b.y2 - b.y1));
       centre_errors.push_back(std::hypot(d.fruits[i].u - 0.5 * (b.x1 + b.x2), d.fruits[i].v - 0.5 * (b.y1 + b.y2)) /
                               side);
       diameter_errors.push_back(std::abs(d.fruits[i].diameter_px - side) / side);
     }
-    const int tp = static_cast<int>(std::count_if(match.begin(), match.end(), [](int m) { return m >= 0; }));
+    const EvalCounts image = score_matches(match, boxes);
     ++total.images;
-    total.boxes += static_cast<int>(boxes.size());
-    total.detections += static_cast<int>(dets.size());
-    total.true_positives += tp;
+    total.boxes += image.boxes;
+    total.detections += image.detections;
+    total.true_positives += image.true_positives;
     out << rt::json_line({{"image", path},
                           {"width", img.cols},
                           {"height", img.rows},
-                          {"boxes", boxes.size()},
+                          {"boxes", image.boxes},
                           {"fruits", dets.size()},
-                          {"true_positives", tp}})
+                          {"true_positives", image.true_positives}})
         << "\n";
     if (!options.overlay_dir.empty()) {
       cv::Mat overlay = draw_overlay(img, d);

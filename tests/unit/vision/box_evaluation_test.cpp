@@ -75,6 +75,30 @@ TEST(Evaluation, ReadsBoxesCsvGroupedByImage) {
   EXPECT_THROW(read_boxes_csv(dir / "none.csv"), std::runtime_error);
 }
 
+// Rendered frames add a visible share (harvest-sim-frames); a fruit less than
+// half visible is neither found nor missed.
+TEST(Evaluation, AHalfHiddenFruitIsNeitherFoundNorMissed) {
+  ht::TempDir dir;
+  std::ofstream(dir / "v.csv") << "image,img_w,img_h,x1,y1,x2,y2,visible\nr.jpg,320,240,0,0,10,10,0.9\n"
+                               << "r.jpg,320,240,20,0,30,10,0.3\nr.jpg,320,240,40,0,50,10,0.7\n";
+  const auto a = read_boxes_csv(dir / "v.csv");
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(a[0].second.size(), 3u);
+  EXPECT_DOUBLE_EQ(a[0].second[1].visible, 0.3);
+  const auto& boxes = a[0].second;
+  // On the visible one, on the hidden one, on nothing; the third box missed.
+  const EvalCounts c = score_matches({0, 1, -1}, boxes);
+  EXPECT_EQ(c.boxes, 2);
+  EXPECT_EQ(c.detections, 2);
+  EXPECT_EQ(c.true_positives, 1);
+  EXPECT_DOUBLE_EQ(c.recall(), 0.5);
+  EXPECT_DOUBLE_EQ(c.precision(), 0.5);
+  // A photo's boxes (no column) all count.
+  EXPECT_EQ(score_matches({0, -1}, {{0, 0, 10, 10}, {20, 0, 30, 10}}).boxes, 2);
+  std::ofstream(dir / "bad.csv") << "image,img_w,img_h,x1,y1,x2,y2,visible\nr.jpg,320,240,0,0,10,10,1.5\n";
+  EXPECT_THROW(read_boxes_csv(dir / "bad.csv"), std::runtime_error);
+}
+
 TEST(ShippedConfig, DetectorFilesLoadWithoutUnknownKeys) {
   for (const char* cam : {"fixed", "hand"}) {
     auto ddoc = config::Document::load_file(std::string("config/vision/detector-") + cam + ".yaml");
