@@ -14,8 +14,8 @@ int main(int argc, char** argv) {
   app.add_option("--set", o.overrides, "override a configuration value, KEY.PATH=VALUE (repeatable)");
   app.add_option("--overlay", overlay, "write each image with its detections drawn to this folder");
   auto* eval = app.add_option("--evaluate", evaluate,
-                              "score against annotated boxes, a CSV image,img_w,img_h,x1,y1,x2,y2 "
-                              "(prints precision and recall)");
+                              "score against annotated boxes, a CSV image,img_w,img_h,x1,y1,x2,y2[,visible] "
+                              "(prints precision and recall; a fruit under half visible is neither found nor missed)");
   app.add_option("--images-dir", images_dir, "folder of the CSV's images (default: <CSV folder>/images)")->needs(eval);
   std::string fold_models;
   app.add_option("--fold-models", fold_models,
