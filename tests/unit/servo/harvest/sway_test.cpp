@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
+#include <vector>
 
 namespace harvest::servo {
 namespace {
@@ -11,8 +13,16 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 const Eigen::Vector3d kStem(0.1, 0.9, -0.4);
 
-// Deterministic noise in [-1, 1] (a fixed linear congruence, not a library's).
-double noise(int i) { return static_cast<double>((i * 7919 + 104729) % 2001 - 1000) / 1000.0; }
+// Deterministic noise in [-1, 1]: the i-th output of a fixed-seed std::mt19937 (its sequence is the standard's).
+double noise(int i) {
+  static const std::vector<double> table = [] {
+    std::mt19937 rng(20261204);
+    std::vector<double> t(4096);
+    for (double& x : t) x = static_cast<double>(rng() % 2001) / 1000.0 - 1.0;
+    return t;
+  }();
+  return table[static_cast<std::size_t>(i) % table.size()];
+}
 
 // The fruit of tree_wind: 15 mm at 0.4 Hz along x, phase 0.3 rad at t = 0,
 // seen at 30 Hz from t0 to t1 with +-0.5 mm of noise on every axis.
@@ -66,6 +76,17 @@ TEST(SwayEstimator, AStillFruitIsStill) {
   const SwayFit f = e.fit();
   EXPECT_FALSE(f.swaying);
   EXPECT_LT(f.amplitude, 0.002);
+}
+
+TEST(SwayEstimator, AJitteryStillFruitIsStillByTheConfidenceAlone) {
+  // +-10 mm of jitter on x: the best sinusoid among the frequencies tried explains little of it.
+  ServoConfig::Sway p;
+  p.min_amplitude = 0.0;
+  SwayEstimator e{p};
+  for (int i = 0; i < 90; ++i) e.add(i / 30.0, kStem + 0.01 * Eigen::Vector3d(noise(i), 0, 0));
+  const SwayFit f = e.fit();
+  EXPECT_LT(f.confidence, 0.6);
+  EXPECT_FALSE(f.swaying);
 }
 
 TEST(SwayEstimator, ACameraDriftIsNotASway) {
