@@ -11,7 +11,7 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // A sinusoid seen over less than half its period is a drift with a bend:
 // frequencies that low for the span are not tried.
-constexpr double kMinPeriodsSeen = 0.5;
+constexpr double kMinPeriodsSeen = 0.4;
 // The scan for the best moment to close [s].
 constexpr double kScanStep = 0.01;
 
@@ -33,27 +33,31 @@ int SwayEstimator::grid_size() const {
 }
 
 std::optional<double> SwayEstimator::learned_hz() const {
-  if (fruit_learned_ < p_.learn_fruit || unexplained_.empty()) return std::nullopt;
-  return grid_hz(static_cast<int>(std::min_element(unexplained_.begin(), unexplained_.end()) - unexplained_.begin()));
+  // The least mean unexplained share among the frequencies learn_fruit fruit were seen long enough for.
+  std::optional<std::size_t> best;
+  for (std::size_t i = 0; i < unexplained_.size(); ++i) {
+    if (fruit_seen_[i] < p_.learn_fruit) continue;
+    if (!best || unexplained_[i] / fruit_seen_[i] < unexplained_[*best] / fruit_seen_[*best]) best = i;
+  }
+  return best ? std::optional<double>(grid_hz(static_cast<int>(*best))) : std::nullopt;
 }
 
 void SwayEstimator::reset() {
   // The fruit's own fit (not one at the learned frequency) says whether it moved: a sway of a plausible size,
   // however poorly fitted (its fit at the right frequency is what the sum is after).
-  const auto learned = fruit_learned_;
-  fruit_learned_ = 0;
+  ignore_learned_ = true;
   const SwayFit own = fit();
-  fruit_learned_ = learned;
+  ignore_learned_ = false;
   if (own.samples >= p_.min_samples && own.span_s >= p_.min_span && own.amplitude >= p_.min_amplitude &&
       own.amplitude <= p_.max_amplitude) {
     unexplained_.resize(static_cast<std::size_t>(grid_size()), 0.0);
+    fruit_seen_.resize(unexplained_.size(), 0);
     for (int i = 0; i < grid_size(); ++i) {
-      // A frequency too low for the span seen explains nothing.
       const double hz = grid_hz(i);
-      unexplained_[static_cast<std::size_t>(i)] +=
-          own.span_s * hz < kMinPeriodsSeen ? 1.0 : 1.0 - fit_at(hz).confidence;
+      if (own.span_s * hz < kMinPeriodsSeen) continue;  // too short a look to tell this frequency from a drift
+      unexplained_[static_cast<std::size_t>(i)] += 1.0 - fit_at(hz).confidence;
+      ++fruit_seen_[static_cast<std::size_t>(i)];
     }
-    ++fruit_learned_;
   }
   samples_.clear();
 }
@@ -98,7 +102,7 @@ SwayFit SwayEstimator::fit() const {
   still.span_s = still.t_ref - samples_.front().first;
   if (still.samples < p_.min_samples || still.span_s < p_.min_span) return still;
   std::optional<SwayFit> best;
-  if (const auto hz = learned_hz()) {
+  if (const auto hz = ignore_learned_ ? std::nullopt : learned_hz()) {
     best = fit_at(*hz);
     best->learned_frequency = true;
   } else {

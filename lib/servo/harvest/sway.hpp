@@ -48,9 +48,9 @@ class SwayEstimator {
   void add(double t, const Eigen::Vector3d& position);
   // A new fruit: its samples are forgotten, but not what they said about the
   // frequency. The wind and the stems are the tree's: every fruit that moved
-  // adds its fit's unexplained share at each frequency tried to a sum over
-  // the fruit; once learn_fruit have, the frequency where the sum is least is
-  // the tree's, and later fruit are fitted at it (their amplitude, phase and
+  // adds its fit's unexplained share at each frequency it was seen long
+  // enough for (0.4 periods) to a sum; the frequency with the least mean
+  // share among those at least learn_fruit fruit were seen for is the tree's, and later fruit are fitted at it (their amplitude, phase and
   // centre their own). One fruit seen briefly through a noisy camera fits a
   // wrong frequency as well as the right one; over several the right one wins.
   void reset();
@@ -67,8 +67,9 @@ class SwayEstimator {
 
   ServoConfig::Sway p_;
   std::deque<std::pair<double, Eigen::Vector3d>> samples_;
-  std::vector<double> unexplained_;  // per grid frequency, summed over the fruit that swayed
-  int fruit_learned_ = 0;
+  std::vector<double> unexplained_;  // per grid frequency, summed over the fruit that moved ...
+  std::vector<int> fruit_seen_;      // ... and were seen long enough to tell it from a drift
+  bool ignore_learned_ = false;      // reset(): the fruit's own fit
 };
 
 // Whether to close now, the IR saying the fruit is inside: a still fruit at

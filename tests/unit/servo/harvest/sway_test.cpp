@@ -123,7 +123,7 @@ TEST(SwayEstimator, KeepsTheWindowAndIgnoresRepeatedImages) {
 TEST(SwayEstimator, ALaterFruitSeenBrieflyTakesTheFrequencyLearnedOnEarlierOnes) {
   SwayEstimator e{ServoConfig::Sway{}};  // learn_fruit 3
   // Three fruit, 1.5 s each (0.6 of a period: each alone fits other frequencies about as well), other phases and
-  // directions, the same wind.
+  // directions, the same wind; a fourth seen for 0.6 s only (a quarter period) does not count.
   const Eigen::Vector3d dirs[] = {Eigen::Vector3d::UnitX(), Eigen::Vector3d(1, 1, 0).normalized(),
                                   Eigen::Vector3d::UnitY()};
   for (int k = 0; k < 3; ++k) {
@@ -132,6 +132,8 @@ TEST(SwayEstimator, ALaterFruitSeenBrieflyTakesTheFrequencyLearnedOnEarlierOnes)
     e.reset();
     EXPECT_EQ(e.size(), 0);
   }
+  see_swaying(e, 35.0, 35.8, 0.015, 0.4, 0.0, Eigen::Vector3d::UnitZ());
+  e.reset();
   ASSERT_TRUE(e.learned_hz().has_value());
   EXPECT_NEAR(*e.learned_hz(), 0.4, 0.041);
   // The next fruit, seen for 1 s (0.4 periods), another phase: fitted at the learned frequency.
