@@ -1,11 +1,21 @@
 #include "servo/approach.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "servo/geometry.hpp"
 #include "servo/tbz_approach.hpp"
 
 namespace harvest::servo {
+
+Eigen::Vector3d seen_in_base(const geometry::CameraModel& k, const Eigen::Isometry3d& camera,
+                             const PixelMeasurement& pixel, const Eigen::Vector3d& fruit_base) {
+  // Depth of the fruit along the optical axis from the best 3D estimate (eq. 6-15); eq. 6-25, 6-26 in
+  // normalised coordinates, scaled by it: the fruit in the camera frame.
+  const double depth = std::max(0.0, (camera.rotation().transpose() * (fruit_base - camera.translation())).z());
+  const Eigen::Vector2d m = undistort_pixel(k, pixel.u, pixel.v);
+  return camera * Eigen::Vector3d(m.x() * depth, m.y() * depth, depth);
+}
 
 void ReconstructionApproach::reset() {
   seen_.clear();
@@ -22,16 +32,11 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
   // With the camera at the tool point, looking along its axis, this is
   // eq. 6-25..6-28 as the thesis writes them.
   const Eigen::Isometry3d tool_inv = in.tool.inverse();
-  const Eigen::Matrix3d rc = in.camera.rotation();
-  // Depth of the fruit along the optical axis from the best 3D estimate (eq. 6-15).
-  const double depth = std::max(0.0, (rc.transpose() * (in.fruit_base - in.camera.translation())).z());
   // Without a fresh view nothing lateral is known: only the depth along the gripper axis.
   Eigen::Vector3d e(0.0, 0.0, std::max(0.0, (tool_inv * in.fruit_base).z()));
   if (in.pixel) {
-    // Eq. 6-25, 6-26 in normalised coordinates, scaled by the depth: the
-    // fruit in the camera frame, then in the tool frame.
-    const Eigen::Vector2d m = undistort_pixel(camera_, in.pixel->u, in.pixel->v);
-    const Eigen::Vector3d seen_base = in.camera * Eigen::Vector3d(m.x() * depth, m.y() * depth, depth);
+    // The fruit seen, in the base frame, then in the tool frame.
+    const Eigen::Vector3d seen_base = seen_in_base(camera_, in.camera, *in.pixel, in.fruit_base);
     e = tool_inv * seen_base;
     if (in.forward_speed && gains_.sway_window > 0.0) {
       // Under IR guidance (near the fruit, centred, its depth good): the mean

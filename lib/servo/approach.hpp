@@ -68,6 +68,12 @@ class ApproachStrategy {
 // the depth error is the fruit's depth ahead of the tool point along it.
 // v_tool = kp e + kd de/dt, rotated into the base frame. (The thesis writes
 // -kv de/dt with its error sign; here kd > 0 always damps.)
+// Where the camera-in-hand at `camera` sees the fruit, in the base frame:
+// on the ray through the pixel, at the depth along the optical axis of the
+// best 3D estimate `fruit_base` (eq. 6-15, 6-25, 6-26).
+Eigen::Vector3d seen_in_base(const geometry::CameraModel& k, const Eigen::Isometry3d& camera,
+                             const PixelMeasurement& pixel, const Eigen::Vector3d& fruit_base);
+
 class ReconstructionApproach final : public ApproachStrategy {
  public:
   ReconstructionApproach(Gains gains, geometry::CameraModel camera) : gains_(gains), camera_(camera) {}

@@ -13,8 +13,8 @@
 // The machine sequences; its parts in servo/harvest/ do one job each: the
 // state table (states.hpp), which fruit next (selector, fruit_ledger), where
 // to aim (aiming), watching a pose goal (goal_monitor), following the fruit
-// in the hand image (hand_tracker), the last centimetres (ir_guidance) and
-// the command messages (commands).
+// in the hand image (hand_tracker), the last centimetres (ir_guidance), when
+// to close on a swaying fruit (sway) and the command messages (commands).
 #pragma once
 
 #include <memory>
@@ -47,6 +47,7 @@
 #include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
+#include "servo/harvest/sway.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
@@ -137,6 +138,8 @@ class HarvestMachine {
   void ir_step(rt::Micros now, MachineOutput& out);
   // GRASP: on along the tool axis while the fingers close (IrGuidance::grasp_twist), then STOP.
   void grasp_step(MachineOutput& out);
+  // IR_APPROACH: a new hand-camera view of the current fruit goes to the sway estimator.
+  void feed_sway(rt::Micros now);
 
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
@@ -180,6 +183,9 @@ class HarvestMachine {
   HandTracker hand_;
   IrGuidance ir_;
   OrientationLaw orientation_law_;
+  SwayEstimator sway_;
+  rt::Micros sway_fed_ = 0;                     // the newest hand image the estimator has (its utime)
+  std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
 
   State state_ = State::kIdle;
   bool paused_ = false;

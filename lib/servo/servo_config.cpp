@@ -131,6 +131,25 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.tbz.arrived_rotation = tz.get(k::tbz::arrived_rotation);
   c.tbz.arrived_translation = tz.get(k::tbz::arrived_translation);
 
+  const config::Node sw = n.child("sway");
+  namespace ks = k::sway;
+  c.sway.window = sw.get(ks::window);
+  c.sway.min_samples = sw.get(ks::min_samples);
+  c.sway.min_span = sw.get(ks::min_span);
+  c.sway.min_frequency_hz = sw.get(ks::min_frequency_hz);
+  c.sway.max_frequency_hz = sw.get(ks::max_frequency_hz);
+  c.sway.frequency_step_hz = sw.get(ks::frequency_step_hz);
+  c.sway.min_amplitude = sw.get(ks::min_amplitude);
+  c.sway.max_amplitude = sw.get(ks::max_amplitude);
+  c.sway.min_confidence = sw.get(ks::min_confidence);
+  c.sway.learn_fruit = sw.get(ks::learn_fruit);
+  c.sway.max_centre_offset = sw.get(ks::max_centre_offset);
+  c.sway.close_delay = sw.get(ks::close_delay);
+  c.sway.close_tolerance = sw.get(ks::close_tolerance);
+  c.sway.max_wait = sw.get(ks::max_wait);
+  if (c.sway.max_frequency_hz < c.sway.min_frequency_hz)
+    sw.fail("max_frequency_hz", "a frequency no lower than min_frequency_hz");
+
   const config::Node g = n.child("gains");
   c.gains.kp_lateral = g.get(k::gains::kp_lateral);
   c.gains.kd_lateral = g.get(k::gains::kd_lateral);
@@ -190,6 +209,10 @@ std::vector<config::Section> ServoConfig::schema() {
                       g::derivative_filter, g::centring_tolerance, g::sway_window, g::kp_orient, g::kd_orient),
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost, t::reacquire,
                       t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
+      config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span,
+                      k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
+                      k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit, k::sway::max_centre_offset, k::sway::close_delay,
+                      k::sway::close_tolerance, k::sway::max_wait),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::arrived_rotation,
                       k::tbz::arrived_translation),

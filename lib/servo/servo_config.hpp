@@ -110,6 +110,22 @@ inline constexpr Key<double> release{"release", 3.0, {0.01, 600.0}, "s", "the gr
 inline constexpr Key<double> robot_state{"robot_state", 0.25, {0.01, 600.0}, "s", "robot state watchdog while running"};
 inline constexpr Key<double> ir_stale{"ir_stale", 0.3, {0.01, 600.0}, "s", "an IR reading older than this: do not advance"};
 }  // namespace timeouts_s
+namespace sway {  // the sway estimator and the timed close (servo/harvest/sway.hpp)
+inline constexpr Key<double> window{"window", 6.0, {0.1, 60.0}, "s", "hand-camera positions of the current fruit kept for the sway fit"};
+inline constexpr Key<int> min_samples{"min_samples", 12, {5, 10000}, "", "fewer positions than this: still"};
+inline constexpr Key<double> min_span{"min_span", 0.8, {0.0, 60.0}, "s", "positions over less time than this: still"};
+inline constexpr Key<double> min_frequency_hz{"min_frequency_hz", 0.2, {0.01, 20.0}, "Hz", "sway frequencies tried: from ..."};
+inline constexpr Key<double> max_frequency_hz{"max_frequency_hz", 2.0, {0.01, 20.0}, "Hz", "... to (at least min_frequency_hz) ..."};
+inline constexpr Key<double> frequency_step_hz{"frequency_step_hz", 0.02, {0.001, 5.0}, "Hz", "... in steps of"};
+inline constexpr Key<double> min_amplitude{"min_amplitude", 0.005, {0.0, 1.0}, "m", "a fitted sway smaller than this: still"};
+inline constexpr Key<double> max_amplitude{"max_amplitude", 0.06, {0.0, 1.0}, "m", "a fitted sway larger than this is the camera's noise: still"};
+inline constexpr Key<double> min_confidence{"min_confidence", 0.6, {0.0, 1.0}, "", "share of the variance about the drift the sinusoid must explain, else still"};
+inline constexpr Key<int> learn_fruit{"learn_fruit", 3, {1, 1000}, "", "after this many swaying fruit, the frequency that fitted them best together is the tree's and later fruit are fitted at it"};
+inline constexpr Key<double> max_centre_offset{"max_centre_offset", 0.03, {0.0, 1.0}, "m", "a fit whose sway centre lies farther off the gripper axis disagrees with the IR and the centring: closed on at once"};
+inline constexpr Key<double> close_delay{"close_delay", 0.6, {0.0, 5.0}, "s", "from the close command to the jaws meeting the fruit"};
+inline constexpr Key<double> close_tolerance{"close_tolerance", 0.006, {0.0, 0.1}, "m", "close a swaying fruit when predicted this near the gripper axis at the end of the close ..."};
+inline constexpr Key<double> max_wait{"max_wait", 1.5, {0.0, 10.0}, "s", "... or nearest within this wait, held still at the grasp range (0: close at once, no timing)"};
+}  // namespace sway
 namespace tbz {  // approach_mode tbz
 inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {0.0, 100.0}, "1/s", "rotation gain (eq. 5-44)"};
 inline constexpr Key<double> lambda_v{"lambda_v", 0.25, {0.0, 1000.0}, "", "translation gain (eq. 5-62)"};
@@ -266,6 +282,24 @@ struct ServoConfig {
   Timeouts timeouts;
   geometry::CameraModel hand_camera = kDefaultHandCamera;
   std::string approach_mode{servo_keys::approach_mode.fallback};  // pluggable approach strategy (approach.hpp)
+  // The sway estimator and the timed close (servo/harvest/sway.hpp,
+  // docs/servo-controller.md "A fruit in the wind").
+  struct Sway {
+    double window = servo_keys::sway::window.fallback;                    // [s]
+    int min_samples = servo_keys::sway::min_samples.fallback;
+    double min_span = servo_keys::sway::min_span.fallback;                // [s]
+    double min_frequency_hz = servo_keys::sway::min_frequency_hz.fallback;
+    double max_frequency_hz = servo_keys::sway::max_frequency_hz.fallback;
+    double frequency_step_hz = servo_keys::sway::frequency_step_hz.fallback;
+    double min_amplitude = servo_keys::sway::min_amplitude.fallback;      // [m]
+    double max_amplitude = servo_keys::sway::max_amplitude.fallback;      // [m]
+    double min_confidence = servo_keys::sway::min_confidence.fallback;    // 0..1
+    int learn_fruit = servo_keys::sway::learn_fruit.fallback;
+    double max_centre_offset = servo_keys::sway::max_centre_offset.fallback;  // [m]
+    double close_delay = servo_keys::sway::close_delay.fallback;          // [s]
+    double close_tolerance = servo_keys::sway::close_tolerance.fallback;  // [m]
+    double max_wait = servo_keys::sway::max_wait.fallback;                // [s]
+  } sway;
   // approach_mode tbz (servo/tbz_approach.hpp, docs/teach-by-zooming.md).
   struct Tbz {
     double lambda_w = servo_keys::tbz::lambda_w.fallback;

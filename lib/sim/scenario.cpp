@@ -171,6 +171,9 @@ Scenario Scenario::from_config(const config::Node& root) {
   const auto w = root.child("wind");
   s.wind.amplitude = w.get(sk::wind::amplitude_mm) * kMm;
   s.wind.frequency_hz = w.get(sk::wind::frequency_hz);
+  s.wind.gust_factor = w.get(sk::wind::gust_factor);
+  s.wind.gust_rate_hz = w.get(sk::wind::gust_rate_hz);
+  s.wind.gust_duration_s = w.get(sk::wind::gust_duration_s);
 
   const auto cams = root.child("cameras");
   s.fixed_camera = camera(cams.child("fixed"));
@@ -298,7 +301,8 @@ std::vector<config::Section> Scenario::schema() {
       section("scenario.look", where, kl::style, sk::look::green_fraction, sk::look::half_ripe_fraction,
               sk::look::dry_leaf_fraction, sk::look::exposure_time_ms, sk::look::auto_exposure,
               sk::look::white_balance_drift),
-      section("scenario.wind", where, sk::wind::amplitude_mm, sk::wind::frequency_hz),
+      section("scenario.wind", where, sk::wind::amplitude_mm, sk::wind::frequency_hz, sk::wind::gust_factor,
+              sk::wind::gust_rate_hz, sk::wind::gust_duration_s),
       section("scenario.cameras.fixed, scenario.cameras.hand", "The true cameras, each the same keys.",
               sk::camera::image_width, sk::camera::image_height, kl::fx, kl::fy, kl::cx, kl::cy, sk::camera::skew,
               kl::distortion_coefficients, sk::camera::rate_hz, sk::camera::noise_std, kl::encoding,

@@ -80,6 +80,9 @@ inline constexpr Key<double> white_balance_drift{"white_balance_drift", 0.04, {0
 namespace wind {
 inline constexpr Key<double> amplitude_mm{"amplitude_mm", 0.0, {0.0, 200.0}, "mm", "fruit sway amplitude"};
 inline constexpr Key<double> frequency_hz{"frequency_hz", 0.5, {0.0, 20.0}, "Hz", "sway frequency"};
+inline constexpr Key<double> gust_factor{"gust_factor", 1.0, {1.0, 10.0}, "", "a gust multiplies the sway amplitude by up to this (1: no gusts)"};
+inline constexpr Key<double> gust_rate_hz{"gust_rate_hz", 0.1, {0.0, 10.0}, "1/s", "mean gusts a second (their start times drawn from the seed)"};
+inline constexpr Key<double> gust_duration_s{"gust_duration_s", 3.0, {0.1, 60.0}, "s", "a gust rises and falls over this long"};
 }  // namespace wind
 namespace camera {
 inline constexpr Key<int> image_width{"image_width", 320, {16, 4096}, "px", "rendered image width"};
@@ -296,6 +299,12 @@ struct Look {
 struct Wind {
   double amplitude = scenario_keys::wind::amplitude_mm.fallback * 1e-3;  // fruit sway amplitude [m]
   double frequency_hz = scenario_keys::wind::frequency_hz.fallback;
+  // Gusts: the amplitude rises to gust_factor times and falls back (a raised
+  // cosine over gust_duration_s), gusts starting at random times, gust_rate_hz
+  // of them a second on average, the same for a seed.
+  double gust_factor = scenario_keys::wind::gust_factor.fallback;
+  double gust_rate_hz = scenario_keys::wind::gust_rate_hz.fallback;
+  double gust_duration_s = scenario_keys::wind::gust_duration_s.fallback;
 };
 
 struct ArmSetup {

@@ -59,6 +59,12 @@ Scene::Scene(const Scenario& s) : lighting_(s.lighting), wind_(s.wind) {
   place_fruit(s, rng);
   grow_branches(s, rng);
   grow_leaves(s, rng);
+  // Gust times from their own stream: a scene with gusts has the same tree as without.
+  if (wind_.amplitude > 0.0 && wind_.gust_factor > 1.0 && wind_.gust_rate_hz > 0.0) {
+    std::mt19937_64 gusts(s.seed ^ 0x9e3779b97f4a7c15ULL);
+    std::exponential_distribution<double> gap(wind_.gust_rate_hz);
+    for (double t = gap(gusts); t < s.time_limit_s; t += gap(gusts)) gust_starts_.push_back(t);
+  }
 }
 
 void Scene::place_fruit(const Scenario& s, std::mt19937_64& rng) {
@@ -145,12 +151,24 @@ void Scene::grow_leaves(const Scenario& s, std::mt19937_64& rng) {
   }
 }
 
+double Scene::gust_gain(double t) const {
+  double gain = 1.0;
+  // Overlapping gusts: the stronger one counts.
+  for (auto it = std::upper_bound(gust_starts_.begin(), gust_starts_.end(), t);
+       it != gust_starts_.begin() && t - *(it - 1) < wind_.gust_duration_s; --it) {
+    const double phase = (t - *(it - 1)) / wind_.gust_duration_s;
+    gain = std::max(gain, 1.0 + (wind_.gust_factor - 1.0) * 0.5 * (1.0 - std::cos(2.0 * std::numbers::pi * phase)));
+  }
+  return gain;
+}
+
 void Scene::apply_wind(double t) {
   if (wind_.amplitude <= 0.0) return;
+  const double amplitude = wind_.amplitude * gust_gain(t);
   for (auto& f : fruit_) {
     if (f.state != FruitState::kOnTree) continue;
     const double s = std::sin(2.0 * std::numbers::pi * wind_.frequency_hz * t + f.sway_phase);
-    f.position = f.stem_position + wind_.amplitude * s * f.sway_direction;
+    f.position = f.stem_position + amplitude * s * f.sway_direction;
   }
 }
 

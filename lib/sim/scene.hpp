@@ -58,6 +58,8 @@ class Scene {
 
   // Moves fruit still on the tree with the wind at simulation time t [s].
   void apply_wind(double t);
+  // The sway amplitude's factor at t [s] from the gusts (1 between gusts).
+  double gust_gain(double t) const;
 
  private:
   void place_fruit(const Scenario& s, std::mt19937_64& rng);
@@ -69,6 +71,7 @@ class Scene {
   std::vector<Bead> beads_;
   Lighting lighting_;
   Wind wind_;
+  std::vector<double> gust_starts_;  // [s] ascending
 };
 
 // Tool orientation whose z axis points from `from` to `to`, with the tool x

@@ -43,6 +43,9 @@ class HandTracker {
   std::optional<PixelMeasurement> fresh(rt::Micros now) const;
   // When the followed centroid was last updated (receive time).
   rt::Micros seen_at() const { return pixel_rx_; }
+  // The followed detection is the whole fruit (clear of the image border, not filling the image): its centroid is
+  // the fruit's centre.
+  bool whole() const { return pixel_whole_; }
   // A fruit nearer than the current one filled the view on the gripper axis
   // within timeouts.lost: how far its centre lies off the axis [m].
   std::optional<double> fruit_in_front(rt::Micros now) const;

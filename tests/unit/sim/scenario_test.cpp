@@ -114,7 +114,8 @@ TEST(Scenario, FixedCameraTruthMatchesTheThesisTablesItWasNotFittedTo) {
       {{139.7, -25.4, 787.4}, {-266.7, 1016.0, -540.2}, {-266.7, 1016.0, -540.2}},
       {{127.9, -171.6, 782.55}, {-412.6, 1011.4, -528.9}, {-412.9, 1011.15, -528.4}},
   };
-  for (const char* name : {"experiment1", "experiment2", "experiment3", "tree", "tree_wind", "tree_short"}) {
+  for (const char* name :
+       {"experiment1", "experiment2", "experiment3", "tree", "tree_wind", "tree_wind_strong", "tree_short"}) {
     SCOPED_TRACE(name);
     const Placement t = load_scenario(std::string("config/scenarios/") + name + ".yaml").fixed_camera_truth;
     for (const Row& r : rows) {
@@ -188,6 +189,45 @@ TEST(Scene, WindSwaysOnlyFruitOnTheTree) {
   }
   EXPECT_GT(max_offset, 0.015);
   EXPECT_EQ(scene.fruit()[1].position, scene.fruit()[1].stem_position);
+}
+
+// Gusts: the amplitude rises to gust_factor times and back over a raised
+// cosine; between gusts it is the wind's own; the times come from the seed
+// and the tree is the same as without gusts.
+TEST(Scene, GustsRaiseTheSwayAndFallBack) {
+  Scenario s;
+  s.seed = 11;
+  s.time_limit_s = 600.0;
+  s.fruit = {{Vec3(0, 1, 0), 0.0}, {Vec3(0.2, 1, 0), 0.0}};  // drawn diameters and sway: the seed's stream
+  s.wind.amplitude = 0.03;
+  s.wind.frequency_hz = 0.8;
+  const Scene calm(s);
+  s.wind.gust_factor = 1.5;
+  s.wind.gust_rate_hz = 0.05;
+  s.wind.gust_duration_s = 4.0;
+  const Scene gusty(s), again(s);
+  ASSERT_EQ(calm.fruit().size(), gusty.fruit().size());
+  for (std::size_t i = 0; i < calm.fruit().size(); ++i) {
+    EXPECT_EQ(calm.fruit()[i].radius, gusty.fruit()[i].radius);
+    EXPECT_EQ(calm.fruit()[i].sway_direction, gusty.fruit()[i].sway_direction);
+  }
+  EXPECT_EQ(calm.gust_gain(100.0), 1.0);
+  double peak = 1.0, low = 2.0;
+  int gusting = 0;
+  for (double t = 0.0; t < 600.0; t += 0.05) {
+    const double g = gusty.gust_gain(t);
+    EXPECT_EQ(g, again.gust_gain(t));
+    EXPECT_GE(g, 1.0);
+    EXPECT_LE(g, 1.5 + 1e-12);
+    peak = std::max(peak, g);
+    low = std::min(low, g);
+    gusting += g > 1.0;
+  }
+  EXPECT_GT(peak, 1.49);
+  EXPECT_EQ(low, 1.0);
+  // About 30 gusts of 4 s in 600 s, some overlapping: a sixth of the time or so.
+  EXPECT_GT(gusting, 1200);
+  EXPECT_LT(gusting, 4000);
 }
 
 TEST(Scene, LookAtPointsToolZAtTheTarget) {
