@@ -1,8 +1,9 @@
 #include "runtime/journal.hpp"
 
 #include <algorithm>
-#include <lcm/lcm-cpp.hpp>
 #include <stdexcept>
+
+#include "runtime/log_io.hpp"
 
 namespace harvest::rt {
 
@@ -55,19 +56,19 @@ node_journal_t JournalWriter::take(Micros now) {
 }
 
 std::map<std::string, Journal> read_journals(const std::string& log_path, const std::string& prefix) {
-  lcm::LogFile in(log_path, "r");
-  if (!in.good()) throw std::runtime_error("cannot open log " + log_path);
+  LogReader in(log_path);
   std::map<std::string, Journal> out;
   std::map<std::string, int64_t> next_seq;
   const std::string channel = prefix + kJournalChannel;
-  for (const lcm::LogEvent* ev = in.readNextEvent(); ev != nullptr; ev = in.readNextEvent()) {
+  node_journal_t m;  // reused: its vectors keep their capacity
+  for (const LogView* ev = in.next(); ev != nullptr; ev = in.next()) {
     if (ev->channel != channel) continue;
-    node_journal_t m;
-    if (m.decode(ev->data, 0, ev->datalen) != ev->datalen) continue;  // a damaged record: counted as missing below
+    if (m.decode(ev->data, 0, static_cast<int>(ev->size)) != static_cast<int>(ev->size))
+      continue;  // a damaged record: counted as missing below
     Journal& j = out[m.instance];
     auto [seq, first] = next_seq.emplace(m.instance, m.header.seq);
     const int64_t lost = first ? m.header.seq : m.header.seq - seq->second;  // records 0.. were before this one
-    if (lost < 0) continue;  // a record seen twice
+    if (lost < 0) continue;                                                  // a record seen twice
     // One lost record is the repeat at the front of this one; more are a gap.
     const bool recover = lost >= 1 && m.n_repeat > 0;
     j.recovered_records += recover ? 1 : 0;
