@@ -128,6 +128,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.tbz.desired_depth_estimate = tz.get(k::tbz::desired_depth_estimate);
   c.tbz.max_match_age_s = tz.get(k::tbz::max_match_age_s);
   c.tbz.fallback_after_s = tz.get(k::tbz::fallback_after_s);
+  c.tbz.desired_wait_s = tz.get(k::tbz::desired_wait_s);
   c.tbz.arrived_rotation = tz.get(k::tbz::arrived_rotation);
   c.tbz.arrived_translation = tz.get(k::tbz::arrived_translation);
 
@@ -191,7 +192,7 @@ std::vector<config::Section> ServoConfig::schema() {
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost, t::reacquire,
                       t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
-                      k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::arrived_rotation,
+                      k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::desired_wait_s, k::tbz::arrived_rotation,
                       k::tbz::arrived_translation),
       security::AuthorityConfig::schema("servo_controller.authority", where, security::AuthorityConfig::kSender)};
 }
