@@ -149,16 +149,8 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       // from the same moment; the replay begins with the first of them.
       rt::Micros start = std::numeric_limits<rt::Micros>::max();
       for (const auto& s : specs) start = std::min<rt::Micros>(start, s.start);
-      std::vector<rt::LogRecord> from_start;
-      std::size_t before = 0;
-      for (auto& r : rt::read_log(o.input_log)) {
-        if (r.timestamp >= start)
-          from_start.push_back(std::move(r));
-        else
-          ++before;
-      }
       input_log = o.output_log + ".input";
-      rt::write_log(input_log, from_start);
+      const std::size_t before = rt::copy_log_from(o.input_log, input_log, start);
       own_nodes_start = start;
       out << "  each node from its process's start (CONFIG snapshot, log time):";
       for (const auto& s : specs) out << " " << s.label << " " << s.start;

@@ -96,6 +96,26 @@ void write_log(const std::string& path, const std::vector<LogRecord>& records) {
   }
 }
 
+std::size_t copy_log_from(const std::string& in, const std::string& out, Micros from) {
+  LogReader r(in);
+  lcm::LogFile f(out, "w");
+  if (!f.good()) throw std::runtime_error("cannot create log " + out);
+  std::size_t before = 0;
+  for (const LogView* ev = r.next(); ev != nullptr; ev = r.next()) {
+    if (ev->timestamp < from) {
+      ++before;
+      continue;
+    }
+    lcm::LogEvent e{};
+    e.timestamp = ev->timestamp;
+    e.channel.assign(ev->channel);
+    e.datalen = static_cast<int32_t>(ev->size);
+    e.data = const_cast<uint8_t*>(ev->data);
+    if (f.writeEvent(&e) != 0) throw std::runtime_error("cannot write log " + out);
+  }
+  return before;
+}
+
 std::optional<std::string> first_difference(const std::vector<LogRecord>& a, const std::vector<LogRecord>& b) {
   const std::size_t n = std::min(a.size(), b.size());
   for (std::size_t i = 0; i < n; ++i) {

@@ -56,6 +56,9 @@ class LogReader {
 // Throws std::runtime_error naming the file if it cannot be read.
 std::vector<LogRecord> read_log(const std::string& path);
 void write_log(const std::string& path, const std::vector<LogRecord>& records);
+// Copies the events at or after `from` of one log to another, event by
+// event (nothing held in memory); returns how many were earlier, left out.
+std::size_t copy_log_from(const std::string& in, const std::string& out, Micros from);
 
 // Describes the first difference between two logs, or nullopt if identical.
 std::optional<std::string> first_difference(const std::vector<LogRecord>& a, const std::vector<LogRecord>& b);

@@ -350,6 +350,9 @@ TEST(LogReader, ReadsWhatLcmWroteSkipsDamageAndEndsAtATruncatedEvent) {
   };
   EXPECT_EQ(read_all(path), records);
   EXPECT_EQ(rt::read_log(path), records);
+  const std::string later = (dir / "later.lcm").string();
+  EXPECT_EQ(rt::copy_log_from(path, later, 200), 1u);
+  EXPECT_EQ(rt::read_log(later), std::vector<rt::LogRecord>(records.begin() + 1, records.end()));
 
   const std::string damaged = (dir / "damaged.lcm").string();
   std::ofstream(damaged, std::ios::binary) << std::string("\x01\xED\xA1junk", 7) << bytes.substr(0, bytes.size() - 10);
