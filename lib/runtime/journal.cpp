@@ -19,14 +19,21 @@ int64_t journal_key(const void* data, std::size_t size) {
   return static_cast<int64_t>(h);
 }
 
+int32_t JournalWriter::name_id(const std::string& name) {
+  const auto it = ids_.find(name);
+  if (it != ids_.end()) return it->second;
+  names_.push_back(name);
+  return ids_.emplace(name, static_cast<int32_t>(names_.size() - 1)).first->second;
+}
+
 void JournalWriter::message(const std::string& channel, const void* data, std::size_t size, Micros t) {
   if (entries_.empty()) first_ = t;
-  entries_.push_back({false, channel, journal_key(data, size), t});
+  entries_.push_back({false, name_id(channel), journal_key(data, size), t});
 }
 
 void JournalWriter::timer(const std::string& label, Micros t) {
   if (entries_.empty()) first_ = t;
-  entries_.push_back({true, label, 0, t});
+  entries_.push_back({true, name_id(label), 0, t});
 }
 
 node_journal_t JournalWriter::take(Micros now) {
@@ -36,21 +43,23 @@ node_journal_t JournalWriter::take(Micros now) {
   m.header.source_seq = -1;
   m.header.publish_utime = now;
   m.instance = instance_;
-  std::map<std::string, int32_t> index;
   m.n_repeat = static_cast<int32_t>(previous_.size());
-  std::vector<JournalEntry> all = previous_;
-  all.insert(all.end(), entries_.begin(), entries_.end());
-  for (const auto& e : all) {
-    auto [it, added] = index.emplace(e.name, static_cast<int32_t>(m.names.size()));
-    if (added) m.names.push_back(e.name);
-    m.kind.push_back(e.timer ? 1 : 0);
-    m.name.push_back(it->second);
-    m.key.push_back(e.key);
-    m.utime.push_back(e.utime);
-  }
+  std::vector<int32_t> index(names_.size(), -1);  // writer's name -> the record's
+  for (const auto* part : {&previous_, &entries_})
+    for (const Entry& e : *part) {
+      auto& i = index[static_cast<std::size_t>(e.name)];
+      if (i < 0) {
+        i = static_cast<int32_t>(m.names.size());
+        m.names.push_back(names_[static_cast<std::size_t>(e.name)]);
+      }
+      m.kind.push_back(e.timer ? 1 : 0);
+      m.name.push_back(i);
+      m.key.push_back(e.key);
+      m.utime.push_back(e.utime);
+    }
   m.n_names = static_cast<int32_t>(m.names.size());
   m.n = static_cast<int32_t>(m.kind.size());
-  previous_ = std::move(entries_);
+  std::swap(previous_, entries_);  // both keep their capacity
   entries_.clear();
   return m;
 }
