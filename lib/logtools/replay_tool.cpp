@@ -1,7 +1,5 @@
 #include "logtools/replay_tool.hpp"
 
-#include "runtime/journal_runner.hpp"
-
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -151,16 +149,8 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       // from the same moment; the replay begins with the first of them.
       rt::Micros start = std::numeric_limits<rt::Micros>::max();
       for (const auto& s : specs) start = std::min<rt::Micros>(start, s.start);
-      std::vector<rt::LogRecord> from_start;
-      std::size_t before = 0;
-      for (auto& r : rt::read_log(o.input_log)) {
-        if (r.timestamp >= start)
-          from_start.push_back(std::move(r));
-        else
-          ++before;
-      }
       input_log = o.output_log + ".input";
-      rt::write_log(input_log, from_start);
+      const std::size_t before = rt::copy_log_from(o.input_log, input_log, start);
       own_nodes_start = start;
       out << "  each node from its process's start (CONFIG snapshot, log time):";
       for (const auto& s : specs) out << " " << s.label << " " << s.start;
@@ -251,29 +241,34 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
   auto replay_once = [&](const std::string& input, std::set<std::string>& regenerated) {
     journal_lines.clear();
     regenerated.clear();
-    std::vector<std::string> outputs;
     const auto wall0 = std::chrono::steady_clock::now();
     const std::clock_t cpu0 = std::clock();
+    // Every journalled process in one pass over the log.
+    std::vector<std::unique_ptr<rt::JournalRunner>> journalled;
+    std::vector<rt::JournalRunner*> runners;
+    std::vector<const BuiltNode*> journalled_nodes;
     for (auto& b : built) {
       const rt::Journal* j = journal_of(*b);
       if (j == nullptr) continue;
-      const std::string part = o.output_log + ".journal-" + b->spec.label;
-      rt::JournalRunner jr(input, part, o.prefix, b->spec.start);
-      std::vector<rt::Node*> nodes;
-      for (auto& n : b->nodes) nodes.push_back(n.get());
-      const auto r = jr.run(nodes, *j);
-      outputs.push_back(part);
+      journalled.push_back(std::make_unique<rt::JournalRunner>(o.prefix, b->spec.start, *j));
+      for (auto& n : b->nodes) journalled.back()->add(*n);
+      runners.push_back(journalled.back().get());
+      journalled_nodes.push_back(b.get());
+    }
+    if (!runners.empty()) rt::replay_journals(input, runners);
+    for (std::size_t i = 0; i < runners.size(); ++i) {
+      const rt::JournalRunner& jr = *runners[i];
+      const BuiltNode& b = *journalled_nodes[i];
+      const rt::Journal& j = *journal_of(b);
+      const auto& r = jr.result();
       for (const auto& c : jr.advertised()) regenerated.insert(jr.full_channel(c));
-      std::string line = "  " + b->spec.label + " replayed from its journal (" + std::to_string(j->records) +
-                         " records" +
-                         (j->recovered_records > 0
-                              ? ", " + std::to_string(j->recovered_records) + " lost by the logger and recovered"
-                              : std::string()) +
-                         (j->missing_records > 0 ? ", " + std::to_string(j->missing_records) + " lost by the logger"
-                                                 : std::string()) +
-                         "): " + std::to_string(r.messages) + " inputs at their live times, " +
-                         std::to_string(r.timers) + " timer firings as they ran, " +
-                         std::to_string(r.missing_inputs) + " inputs not in the recording";
+      std::string line =
+          "  " + b.spec.label + " replayed from its journal (" + std::to_string(j.records) + " records" +
+          (j.recovered_records > 0 ? ", " + std::to_string(j.recovered_records) + " lost by the logger and recovered"
+                                   : std::string()) +
+          (j.missing_records > 0 ? ", " + std::to_string(j.missing_records) + " lost by the logger" : std::string()) +
+          "): " + std::to_string(r.messages) + " inputs at their live times, " + std::to_string(r.timers) +
+          " timer firings as they ran, " + std::to_string(r.missing_inputs) + " inputs not in the recording";
       for (const auto& m : r.missing) line += "\n    missing: " + m;
       journal_lines.push_back(line);
     }
@@ -294,14 +289,10 @@ int run_replay_tool(const ReplayToolOptions& o, std::ostream& out, std::ostream&
       }
     const auto result = runner.run();
     for (const auto& c : runner.advertised()) regenerated.insert(runner.full_channel(c));
-    if (!outputs.empty() && !o.output_log.empty()) {
-      // One output log, in time order (stable: each part's own order kept).
+    if (!runners.empty() && !o.output_log.empty()) {
+      // One output log, in time order (stable: the plain replay's first, then each process's, each in its order).
       std::vector<rt::LogRecord> merged = rt::read_log(o.output_log);
-      for (const auto& part : outputs) {
-        auto records = rt::read_log(part);
-        std::move(records.begin(), records.end(), std::back_inserter(merged));
-        std::filesystem::remove(part);
-      }
+      for (const auto& jr : journalled) merged.insert(merged.end(), jr->published().begin(), jr->published().end());
       std::stable_sort(merged.begin(), merged.end(),
                        [](const rt::LogRecord& a, const rt::LogRecord& b) { return a.timestamp < b.timestamp; });
       rt::write_log(o.output_log, merged);

@@ -1,8 +1,9 @@
 #include "runtime/journal.hpp"
 
 #include <algorithm>
-#include <lcm/lcm-cpp.hpp>
 #include <stdexcept>
+
+#include "runtime/log_io.hpp"
 
 namespace harvest::rt {
 
@@ -18,14 +19,21 @@ int64_t journal_key(const void* data, std::size_t size) {
   return static_cast<int64_t>(h);
 }
 
+int32_t JournalWriter::name_id(const std::string& name) {
+  const auto it = ids_.find(name);
+  if (it != ids_.end()) return it->second;
+  names_.push_back(name);
+  return ids_.emplace(name, static_cast<int32_t>(names_.size() - 1)).first->second;
+}
+
 void JournalWriter::message(const std::string& channel, const void* data, std::size_t size, Micros t) {
   if (entries_.empty()) first_ = t;
-  entries_.push_back({false, channel, journal_key(data, size), t});
+  entries_.push_back({false, name_id(channel), journal_key(data, size), t});
 }
 
 void JournalWriter::timer(const std::string& label, Micros t) {
   if (entries_.empty()) first_ = t;
-  entries_.push_back({true, label, 0, t});
+  entries_.push_back({true, name_id(label), 0, t});
 }
 
 node_journal_t JournalWriter::take(Micros now) {
@@ -35,39 +43,41 @@ node_journal_t JournalWriter::take(Micros now) {
   m.header.source_seq = -1;
   m.header.publish_utime = now;
   m.instance = instance_;
-  std::map<std::string, int32_t> index;
   m.n_repeat = static_cast<int32_t>(previous_.size());
-  std::vector<JournalEntry> all = previous_;
-  all.insert(all.end(), entries_.begin(), entries_.end());
-  for (const auto& e : all) {
-    auto [it, added] = index.emplace(e.name, static_cast<int32_t>(m.names.size()));
-    if (added) m.names.push_back(e.name);
-    m.kind.push_back(e.timer ? 1 : 0);
-    m.name.push_back(it->second);
-    m.key.push_back(e.key);
-    m.utime.push_back(e.utime);
-  }
+  std::vector<int32_t> index(names_.size(), -1);  // writer's name -> the record's
+  for (const auto* part : {&previous_, &entries_})
+    for (const Entry& e : *part) {
+      auto& i = index[static_cast<std::size_t>(e.name)];
+      if (i < 0) {
+        i = static_cast<int32_t>(m.names.size());
+        m.names.push_back(names_[static_cast<std::size_t>(e.name)]);
+      }
+      m.kind.push_back(e.timer ? 1 : 0);
+      m.name.push_back(i);
+      m.key.push_back(e.key);
+      m.utime.push_back(e.utime);
+    }
   m.n_names = static_cast<int32_t>(m.names.size());
   m.n = static_cast<int32_t>(m.kind.size());
-  previous_ = std::move(entries_);
+  std::swap(previous_, entries_);  // both keep their capacity
   entries_.clear();
   return m;
 }
 
 std::map<std::string, Journal> read_journals(const std::string& log_path, const std::string& prefix) {
-  lcm::LogFile in(log_path, "r");
-  if (!in.good()) throw std::runtime_error("cannot open log " + log_path);
+  LogReader in(log_path);
   std::map<std::string, Journal> out;
   std::map<std::string, int64_t> next_seq;
   const std::string channel = prefix + kJournalChannel;
-  for (const lcm::LogEvent* ev = in.readNextEvent(); ev != nullptr; ev = in.readNextEvent()) {
+  node_journal_t m;  // reused: its vectors keep their capacity
+  for (const LogView* ev = in.next(); ev != nullptr; ev = in.next()) {
     if (ev->channel != channel) continue;
-    node_journal_t m;
-    if (m.decode(ev->data, 0, ev->datalen) != ev->datalen) continue;  // a damaged record: counted as missing below
+    if (m.decode(ev->data, 0, static_cast<int>(ev->size)) != static_cast<int>(ev->size))
+      continue;  // a damaged record: counted as missing below
     Journal& j = out[m.instance];
     auto [seq, first] = next_seq.emplace(m.instance, m.header.seq);
     const int64_t lost = first ? m.header.seq : m.header.seq - seq->second;  // records 0.. were before this one
-    if (lost < 0) continue;  // a record seen twice
+    if (lost < 0) continue;                                                  // a record seen twice
     // One lost record is the repeat at the front of this one; more are a gap.
     const bool recover = lost >= 1 && m.n_repeat > 0;
     j.recovered_records += recover ? 1 : 0;

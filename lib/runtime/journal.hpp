@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "harvest/node_journal_t.hpp"
@@ -46,9 +47,21 @@ class JournalWriter {
   node_journal_t take(Micros now);
 
  private:
+  // An entry names its channel or timer by an index into names_: no string
+  // copied per message handled.
+  struct Entry {
+    bool timer;
+    int32_t name;
+    int64_t key;
+    Micros utime;
+  };
+  int32_t name_id(const std::string& name);
+
   std::string instance_;
-  std::vector<JournalEntry> entries_;
-  std::vector<JournalEntry> previous_;  // repeated in the next record
+  std::vector<std::string> names_;
+  std::unordered_map<std::string, int32_t> ids_;
+  std::vector<Entry> entries_;
+  std::vector<Entry> previous_;  // repeated in the next record
   Micros first_ = 0;
   int64_t seq_ = 0;
 };

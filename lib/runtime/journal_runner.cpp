@@ -1,5 +1,6 @@
 #include "runtime/journal_runner.hpp"
 
+#include <optional>
 #include <stdexcept>
 
 namespace harvest::rt {
@@ -8,11 +9,8 @@ namespace {
 constexpr Micros kLookAhead = 5 * kSecond;  // the logger's copy of an input comes within this of the node's
 }
 
-JournalRunner::JournalRunner(std::string input_log, std::string output_log, std::string prefix, Micros start)
-    : LogicalTimeRunner(std::move(prefix), start, "journal replay"),
-      input_log_(std::move(input_log)),
-      output_log_(std::move(output_log)),
-      start_(start) {}
+JournalRunner::JournalRunner(std::string prefix, Micros start, const Journal& journal)
+    : LogicalTimeRunner(std::move(prefix), start, "journal replay"), start_(start), journal_(journal) {}
 
 JournalRunner::~JournalRunner() = default;
 
@@ -22,93 +20,130 @@ void JournalRunner::watch_fd(int, std::function<void()>) {
 
 void JournalRunner::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
   ++result_.published;
-  if (!out_) return;
-  lcm::LogEvent ev{};
-  ev.timestamp = clock_.now();
-  ev.channel = full_channel(channel);
-  ev.datalen = static_cast<int32_t>(size);
-  ev.data = const_cast<void*>(data);
-  if (out_->writeEvent(&ev) != 0) throw std::runtime_error("cannot write " + output_log_);
+  const auto* p = static_cast<const uint8_t*>(data);
+  published_.push_back({clock_.now(), full_channel(channel), std::vector<uint8_t>(p, p + size)});
 }
 
-std::optional<std::vector<uint8_t>> JournalRunner::find(const std::string& channel, int64_t key, Micros t) {
-  auto search = [&]() -> std::optional<std::vector<uint8_t>> {
-    auto& q = held_[channel];
+const JournalEntry* JournalRunner::next_entry() {
+  const auto& entries = journal_.entries;
+  // Entries before the start are an earlier run of the instance in the same log.
+  while (next_ < entries.size() && entries[next_].utime < start_) ++next_;
+  return stop_ || next_ == entries.size() ? nullptr : &entries[next_];
+}
+
+JournalRunner::Inputs& JournalRunner::inputs_of(const std::string& channel) {
+  for (auto& in : inputs_)
+    if (in.channel == channel) return in;
+  inputs_.push_back({channel, {}});
+  return inputs_.back();
+}
+
+void replay_journals(const std::string& input_log, const std::vector<JournalRunner*>& runners) {
+  LogReader in(input_log);
+  for (JournalRunner* r : runners) {
+    r->clock_.set(r->start_);
+    r->attach_all();
+    r->drain();
+  }
+
+  // Where each recorded channel goes: the inputs of every runner subscribed to it.
+  struct Route {
+    std::string channel;  // as in the log
+    std::vector<JournalRunner::Inputs*> to;
+  };
+  std::vector<Route> routes;
+  auto route_of = [&](std::string_view channel) -> Route& {
+    for (JournalRunner* r : runners)
+      if (r->subscriptions_changed_) {  // a node subscribed after attaching: the routes are recomputed
+        routes.clear();
+        for (JournalRunner* q : runners) q->subscriptions_changed_ = false;
+        break;
+      }
+    for (auto& rt : routes)
+      if (rt.channel == channel) return rt;
+    Route rt{std::string(channel), {}};
+    for (JournalRunner* r : runners) {
+      const std::string logical = r->logical_channel(rt.channel);
+      if (!logical.empty() && r->is_subscribed(logical)) rt.to.push_back(&r->inputs_of(logical));
+    }
+    routes.push_back(std::move(rt));
+    return routes.back();
+  };
+
+  bool done = false;
+  Micros read_to = 0;
+  // The recorded message on `channel` with `key` for `r`, read ahead in the log as far as `t` + 5 s.
+  auto find = [&](JournalRunner::Inputs& inputs, int64_t key, Micros t) -> std::optional<JournalRunner::Held> {
+    auto& q = inputs.held;
     for (auto it = q.begin(); it != q.end(); ++it)
       if (it->key == key) {
-        std::vector<uint8_t> data = std::move(it->data);
+        const JournalRunner::Held h = *it;
         q.erase(it);
-        return data;
+        return h;
       }
+    while (!done && read_to <= t + kLookAhead) {
+      const LogView* ev = in.next();
+      if (ev == nullptr) {
+        done = true;
+        break;
+      }
+      read_to = ev->timestamp;
+      const Route& route = route_of(ev->channel);
+      if (route.to.empty()) continue;
+      const JournalRunner::Held h{ev->timestamp, journal_key(ev->data, ev->size), ev->data, ev->size};
+      for (JournalRunner::Inputs* to : route.to) {
+        // What the live node never handled (before it started, or lost on its way) is let go after a while.
+        while (!to->held.empty() && to->held.front().timestamp < ev->timestamp - 2 * kLookAhead) to->held.pop_front();
+        to->held.push_back(h);
+      }
+      if (h.key == key && !q.empty() && q.back().data == h.data) {
+        q.pop_back();
+        return h;
+      }
+    }
     return std::nullopt;
   };
-  if (auto found = search()) return found;
-  while (!in_done_ && read_to_ <= t + kLookAhead) {
-    const lcm::LogEvent* ev = in_->readNextEvent();
-    if (ev == nullptr) {
-      in_done_ = true;
-      break;
-    }
-    read_to_ = ev->timestamp;
-    const std::string logical = logical_channel(ev->channel);
-    if (!is_subscribed(logical)) continue;
-    auto& q = held_[logical];
-    // What the live node never handled (before it started, or lost on its way) is let go after a while.
-    while (!q.empty() && q.front().timestamp < ev->timestamp - 2 * kLookAhead) q.pop_front();
-    const auto* p = static_cast<const uint8_t*>(ev->data);
-    q.push_back({ev->timestamp, journal_key(ev->data, static_cast<std::size_t>(ev->datalen)),
-                 std::vector<uint8_t>(p, p + ev->datalen)});
-    if (logical == channel && q.back().key == key) {
-      std::vector<uint8_t> data = std::move(q.back().data);
-      q.pop_back();
-      return data;
-    }
-  }
-  return std::nullopt;
-}
 
-JournalReplayResult JournalRunner::run(const std::vector<Node*>& nodes, const Journal& journal) {
-  in_ = std::make_unique<lcm::LogFile>(input_log_, "r");
-  if (!in_->good()) throw std::runtime_error("cannot open log " + input_log_);
-  if (!output_log_.empty()) {
-    out_ = std::make_unique<lcm::LogFile>(output_log_, "w");
-    if (!out_->good()) throw std::runtime_error("cannot create log " + output_log_);
-  }
-  for (Node* n : nodes) add(*n);
-  clock_.set(start_);
-  attach_all();
-  drain();
-  for (const JournalEntry& e : journal.entries) {
-    if (stop_) break;
-    if (e.utime < start_) continue;  // an earlier run of the instance in the same log
-    if (e.timer) {
-      const auto id = timer_by_label(e.name);
-      if (!id) {
-        ++result_.other_timers;
-        continue;
+  // The journals' entries in the order of their live times (each journal's own order kept).
+  for (;;) {
+    JournalRunner* r = nullptr;
+    const JournalEntry* e = nullptr;
+    for (JournalRunner* c : runners) {
+      const JournalEntry* ce = c->next_entry();
+      if (ce != nullptr && (e == nullptr || ce->utime < e->utime)) {
+        r = c;
+        e = ce;
       }
-      clock_.set(std::max(clock_.now(), e.utime));
-      const bool one_shot = !timers_.periodic(*id);
-      timers_.fire_now(*id);
-      if (one_shot) forget_timer(*id);
-      ++result_.timers;
-    } else {
-      if (!is_subscribed(e.name)) continue;  // the heartbeat's, or a node not replayed
-      const auto data = find(e.name, e.key, e.utime);
-      if (!data) {
-        ++result_.missing_inputs;
-        if (result_.missing.size() < 5)
-          result_.missing.push_back(e.name + " at " + std::to_string(e.utime) + " (not in the recording)");
-        continue;
-      }
-      clock_.set(std::max(clock_.now(), e.utime));
-      deliver(e.name, data->data(), data->size(), clock_.now());
-      ++result_.messages;
     }
-    drain();
+    if (r == nullptr) break;
+    ++r->next_;
+    auto& res = r->result_;
+    if (e->timer) {
+      const auto id = r->timer_by_label(e->name);
+      if (!id) {
+        ++res.other_timers;
+        continue;
+      }
+      r->clock_.set(std::max(r->clock_.now(), e->utime));
+      const bool one_shot = !r->timers_.periodic(*id);
+      r->timers_.fire_now(*id);
+      if (one_shot) r->forget_timer(*id);
+      ++res.timers;
+    } else {
+      if (!r->is_subscribed(e->name)) continue;  // the heartbeat's, or a node not replayed
+      const auto held = find(r->inputs_of(e->name), e->key, e->utime);
+      if (!held) {
+        ++res.missing_inputs;
+        if (res.missing.size() < 5)
+          res.missing.push_back(e->name + " at " + std::to_string(e->utime) + " (not in the recording)");
+        continue;
+      }
+      r->clock_.set(std::max(r->clock_.now(), e->utime));
+      r->deliver(e->name, held->data, held->size, r->clock_.now());
+      ++res.messages;
+    }
+    r->drain();
   }
-  out_.reset();
-  return result_;
 }
 
 }  // namespace harvest::rt

@@ -4,6 +4,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "runtime/log_io.hpp"
+
 namespace harvest::rt {
 
 ReplayRunner::ReplayRunner(ReplayOptions options)
@@ -61,14 +63,13 @@ void ReplayRunner::attach_due(Micros t) {
 }
 
 ReplayResult ReplayRunner::run() {
-  lcm::LogFile in(options_.input_log, "r");
-  if (!in.good()) throw std::runtime_error("cannot open log " + options_.input_log);
+  LogReader in(options_.input_log);
   if (!options_.output_log.empty()) {
     out_ = std::make_unique<lcm::LogFile>(options_.output_log, "w");
     if (!out_->good()) throw std::runtime_error("cannot create log " + options_.output_log);
   }
 
-  const lcm::LogEvent* ev = in.readNextEvent();
+  const LogView* ev = in.next();
   if (ev == nullptr) {
     attach_all();
     return result_;
@@ -79,27 +80,33 @@ ReplayResult ReplayRunner::run() {
   drain();
   attach_due(ev->timestamp);  // those that started before the log's first event: at it
 
-  for (; ev != nullptr && !stop_; ev = in.readNextEvent()) {
+  std::string channel, logical;  // reused: no allocation per event
+  for (; ev != nullptr && !stop_; ev = in.next()) {
     if (options_.end_time && ev->timestamp > *options_.end_time) break;
     ++result_.events_read;
     attach_due(ev->timestamp);
     fire_timers_until(ev->timestamp);
     if (stop_) break;
-    clock_.set(std::max(clock_.now(), static_cast<Micros>(ev->timestamp)));
+    clock_.set(std::max(clock_.now(), ev->timestamp));
     result_.last_time = clock_.now();
+    channel.assign(ev->channel);
     if (options_.copy_inputs && out_) {
-      lcm::LogEvent copy = *ev;
+      lcm::LogEvent copy{};
+      copy.timestamp = ev->timestamp;
+      copy.channel = channel;
+      copy.datalen = static_cast<int32_t>(ev->size);
+      copy.data = const_cast<uint8_t*>(ev->data);
       out_->writeEvent(&copy);
     }
-    const std::string logical = logical_channel(ev->channel);
-    if (logical.empty() && !prefix().empty()) continue;
+    if (channel.compare(0, prefix().size(), prefix()) != 0) continue;  // not the recorded graph's
+    logical.assign(channel, prefix().size());
     if (advertised().count(logical) && !options_.isolated) {  // regenerated: not fed in
       ++result_.events_skipped;
       continue;
     }
     if (!is_subscribed(logical)) continue;
     ++result_.events_delivered;
-    deliver(logical, ev->data, static_cast<std::size_t>(ev->datalen), clock_.now());
+    deliver(logical, ev->data, ev->size, clock_.now());
     drain();
   }
   if (!stop_ && options_.tail > 0) fire_timers_until(result_.last_time + options_.tail);

@@ -18,6 +18,7 @@ TbzApproachParams tbz_params_from(const ServoConfig& config) {
   p.controller.desired_depth_estimate = config.tbz.desired_depth_estimate;
   p.max_match_age_s = config.tbz.max_match_age_s;
   p.fallback_after_s = config.tbz.fallback_after_s;
+  p.desired_wait_s = config.tbz.desired_wait_s;
   p.arrived_rotation = config.tbz.arrived_rotation;
   p.arrived_translation = config.tbz.arrived_translation;
   p.gains = config.gains;
@@ -45,6 +46,8 @@ void TbzApproach::reset() {
   fallback_.reset();
   fell_back_ = false;
   refusing_since_.reset();
+  no_desired_since_.reset();
+  no_desired_ = false;
   started_at_.reset();
   stepped_at_.reset();
   fallback_note_.clear();
@@ -62,6 +65,7 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   ApproachOutput out = step(in);
   if (refusal_.empty()) {
     refusing_since_.reset();
+    no_desired_since_.reset();
     out.note = "teach by zooming";
     if (*out.arrived) {
       char buf[160];
@@ -71,9 +75,12 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
     }
     return out;
   }
-  if (!refusing_since_) refusing_since_ = in.now;
-  const double refusing_s = rt::to_seconds(in.now - *refusing_since_);
-  if (refusing_s < params_.fallback_after_s) {
+  // Waiting for a desired image and refusing matches run on separate clocks:
+  // the first wait does not shorten the second.
+  auto& since = no_desired_ ? no_desired_since_ : refusing_since_;
+  if (!since) since = in.now;
+  const double refusing_s = rt::to_seconds(in.now - *since);
+  if (refusing_s < (no_desired_ ? params_.desired_wait_s : params_.fallback_after_s)) {
     // A frame or two without matches is not news (HARVEST_STATUS goes out on every change of the note).
     out.note = refusing_s < 0.5 * params_.fallback_after_s ? "teach by zooming"
                                                            : "teach by zooming: waiting (" + refusal_ + ")";
@@ -92,6 +99,7 @@ ApproachOutput TbzApproach::step(const ApproachInput& in) {
   out.error.setZero();
   out.arrived = false;
   const Eigen::Matrix3d R_tool = in.tool.rotation();
+  no_desired_ = matches_ && matches_->status == feature_matches_t::STATUS_NO_DESIRED;
   if (!matches_) {
     refusal_ = "no FEATURE_MATCHES yet";
     return out;

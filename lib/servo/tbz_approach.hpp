@@ -8,7 +8,8 @@
 // approach_mode is "tbz"). Without fresh verified matches (status not OK,
 // or older than max_match_age_s) the twist is zero and error zero; when that
 // lasts fallback_after_s (natural fruit: no features, the thesis's finding
-// in section 5.7; or no zoomed view of this fruit) the approach to this fruit
+// in section 5.7; or no zoomed view of this fruit; without any desired image
+// yet, desired_wait_s) the approach to this fruit
 // falls back to the 3D-reconstruction approach and says so in its note.
 // TBZ servos to a pose of its own (the view of the zoomed image) and reports
 // `arrived` when its rotation and translation errors are within the
@@ -36,6 +37,11 @@ struct TbzApproachParams {
   // As ServoConfig::Tbz: |e_w| is u theta, |e_v| normalised pixels and the log depth ratio (eq. 5-55).
   double max_match_age_s = 0.3;
   double fallback_after_s = 1.5;
+  // Without a desired image there is nothing to match yet, no sign that the
+  // fruit lacks features: the zoomed view comes at the zoom camera's rate (0.5
+  // Hz in the simulator, its first frame 2 s after start), and a controller in
+  // APPROACH sooner waits for it this long instead of fallback_after_s.
+  double desired_wait_s = 5.0;
   double arrived_rotation = 0.0175;
   double arrived_translation = 0.01;
   // Under IR guidance (forward_speed set) and after a fallback: the reconstruction approach.
@@ -71,9 +77,10 @@ class TbzApproach final : public ApproachStrategy {
   geometry::Points2 anchors_;
   control::TbzOutput last_;
   std::string refusal_;
+  bool no_desired_ = false;  // the refusal is STATUS_NO_DESIRED
   ReconstructionApproach fallback_;
   bool fell_back_ = false;
-  std::optional<rt::Micros> refusing_since_, started_at_, stepped_at_;
+  std::optional<rt::Micros> refusing_since_, no_desired_since_, started_at_, stepped_at_;
   std::string fallback_note_;
 };
 

@@ -11,7 +11,6 @@
 // the controller keeps waiting (docs/teach-by-zooming.md).
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -76,7 +75,9 @@ DemoRun run_demo(const fs::path& dir, const std::string& scenario) {
 
 // What the log says about the approach: the controller's state and status line over time.
 struct Trace {
-  int matches_ok_in_approach = 0, matches_in_approach = 0;
+  // FEATURE_MATCHES during APPROACH once there was a desired image (before
+  // the first zoomed view there is nothing to match: STATUS_NO_DESIRED).
+  int matches_ok_in_approach = 0, matches_in_approach = 0, waiting_for_desired = 0;
   int rotating_commands_in_approach = 0, commands_in_approach = 0;
   std::vector<std::string> summaries;  // every distinct HARVEST_STATUS summary, in order
   bool any(const std::string& needle) const {
@@ -96,6 +97,10 @@ Trace trace(const std::vector<rt::LogRecord>& log) {
       if (t.summaries.empty() || t.summaries.back() != s->summary) t.summaries.push_back(s->summary);
     } else if (r.channel == "FEATURE_MATCHES" && state == "APPROACH") {
       const auto m = rt::decode<harvest::feature_matches_t>(r.data);
+      if (m && m->status == harvest::feature_matches_t::STATUS_NO_DESIRED) {
+        ++t.waiting_for_desired;
+        continue;
+      }
       ++t.matches_in_approach;
       t.matches_ok_in_approach += m && m->status == harvest::feature_matches_t::STATUS_OK;
     } else if (r.channel == "ROBOT_COMMAND" && state == "APPROACH") {
@@ -115,24 +120,22 @@ std::string joined(const std::vector<std::string>& v) {
   return s;
 }
 
-// Opt-in (HARVEST_TBZ_DEMO=1). The starved simulator that made it fail
-// before is fixed (render thread, real-time loop), but in the third clean
-// .ci/run of 2026-12-04 it picked the fruit with 125 of 161 matches verified
-// during APPROACH (77.6 %, the test asks 80 %): the match quality under load
-// is not yet reliable enough for CI.
+// In the suite (16-20 s). Its one failure in 8 runs on 2026-12-04 (5 alone,
+// 3 beside two busy loops) was the controller reaching APPROACH before the
+// first zoomed view: its FEATURE_MATCHES said "no desired image" and counted
+// as unverified (46 of 82); they are not counted now, and the controller
+// waits for the desired image desired_wait_s, not fallback_after_s.
 TEST(TbzDemo, TheStickeredFruitIsPickedThroughTeachByZooming) {
-  const char* opt_in = std::getenv("HARVEST_TBZ_DEMO");
-  if (opt_in == nullptr || std::string(opt_in) != "1")
-    GTEST_SKIP() << "HARVEST_TBZ_DEMO=1 to run (verified-match share under load, see the comment)";
   ht::TempDir dir;
   const DemoRun r = run_demo(dir.path(), "config/scenarios/tbz.yaml");
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(r.summary["picked"], 1) << r.output;
   EXPECT_EQ(r.summary["reachable"], 1) << r.output;
   const Trace t = trace(r.log);
-  std::printf("APPROACH: %d of %d FEATURE_MATCHES verified, %d of %d twists rotating\n%s", t.matches_ok_in_approach,
-              t.matches_in_approach, t.rotating_commands_in_approach, t.commands_in_approach,
-              joined(t.summaries).c_str());
+  std::printf(
+      "APPROACH: %d of %d FEATURE_MATCHES verified (%d more before a desired image), %d of %d twists rotating\n%s",
+      t.matches_ok_in_approach, t.matches_in_approach, t.waiting_for_desired, t.rotating_commands_in_approach,
+      t.commands_in_approach, joined(t.summaries).c_str());
   EXPECT_GE(t.matches_ok_in_approach, 15);
   EXPECT_GE(t.matches_ok_in_approach, 0.8 * t.matches_in_approach);
   EXPECT_GE(t.rotating_commands_in_approach, 10);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace harvest::camera {
@@ -70,6 +71,41 @@ TEST(ImageCodec, JpegRoundTripIsClose) {
   m.data.resize(m.data.size() + 16, 0);
   m.size = static_cast<int32_t>(m.data.size());
   EXPECT_TRUE(decode_image(m).ok()) << decode_image(m).error;
+}
+
+// decode_image reads JPEG with libjpeg-turbo itself, straight into BGR; the
+// pixels must be exactly cv::imdecode's (the detectors' outputs, and every
+// recorded detection a replay compares with, depend on them): colour,
+// baseline, optimised and progressive, several qualities, odd sizes, and grey.
+TEST(ImageCodec, JpegPixelsAreExactlyOpenCvs) {
+  cv::RNG rng(17);
+  for (const int variant : {0, int{cv::IMWRITE_JPEG_OPTIMIZE}, int{cv::IMWRITE_JPEG_PROGRESSIVE}})
+    for (const int quality : {50, 90, 98})
+      for (const cv::Size size : {cv::Size(320, 240), cv::Size(75, 33)}) {
+        cv::Mat3b img = test_image(size.width, size.height);
+        cv::Mat noise(img.size(), img.type());
+        rng.fill(noise, cv::RNG::NORMAL, 0, 25);
+        img += noise;
+        cv::circle(img, {size.width / 2, size.height / 2}, size.height / 3, cv::Scalar(30, 120, 240), -1);
+        for (const bool grey : {false, true}) {
+          cv::Mat src = img;
+          if (grey) cv::cvtColor(img, src, cv::COLOR_BGR2GRAY);
+          image_t m{};
+          m.encoding = image_t::ENCODING_JPEG;
+          m.width = size.width;
+          m.height = size.height;
+          std::vector<int> params = {cv::IMWRITE_JPEG_QUALITY, quality};
+          if (variant != 0) params.insert(params.end(), {variant, 1});
+          cv::imencode(".jpg", src, m.data, params);
+          m.size = static_cast<int32_t>(m.data.size());
+          const DecodedImage d = decode_image(m);
+          ASSERT_TRUE(d.ok()) << d.error;
+          const cv::Mat reference = cv::imdecode(m.data, cv::IMREAD_COLOR);
+          ASSERT_EQ(d.bgr.size(), reference.size());
+          EXPECT_EQ(cv::norm(d.bgr, reference, cv::NORM_INF), 0)
+              << "variant " << variant << " quality " << quality << " " << size << (grey ? " grey" : "");
+        }
+      }
 }
 
 std::string error_of(image_t m) { return decode_image(m).error; }

@@ -1,11 +1,12 @@
 // TbzApproach: the servo's ApproachStrategy for teach by zooming, driven by
 // feature_matches_t messages (issue 4).
+#include "servo/tbz_approach.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 
 #include "geometry/homography.hpp"
-#include "servo/tbz_approach.hpp"
 
 namespace g = harvest::geometry;
 namespace s = harvest::servo;
@@ -209,4 +210,44 @@ TEST(TbzApproach, FallsBackToTheReconstructionApproachWithoutFeatures) {
   EXPECT_FALSE(approach.fell_back());
   const auto out = approach.update(input(2'300'000));
   EXPECT_EQ(out.note.find("impossible"), std::string::npos) << out.note;
+}
+
+// The zoomed view comes at the zoom camera's rate (every 2 s in the
+// simulator): a controller in APPROACH before the first one waits for it up
+// to desired_wait_s, not fallback_after_s (nothing to match is no sign of a
+// fruit without features), and the wait does not shorten the refusal clock
+// that follows; with no desired image for desired_wait_s it falls back too.
+TEST(TbzApproach, WaitsForTheDesiredImageLongerThanForMatches) {
+  auto p = params();
+  p.fallback_after_s = 1.0;
+  p.desired_wait_s = 3.0;
+  s::TbzApproach approach(p);
+  const Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  auto input = [&](int64_t now) {
+    return s::ApproachInput{now,         tool, tool, Vector3d(0.03, -0.01, 0.5), s::PixelMeasurement{380.0, 230.0, now},
+                            std::nullopt};
+  };
+  harvest::feature_matches_t m{};
+  auto feed = [&](int8_t status, int64_t from, int64_t to) {
+    for (int64_t now = from; now <= to; now += 20'000) {
+      m.status = status;
+      m.status_text =
+          status == harvest::feature_matches_t::STATUS_NO_DESIRED ? "no desired (zoomed) image" : "0 matches";
+      m.header.utime = now;
+      approach.on_matches(m);
+      approach.update(input(now));
+    }
+  };
+  feed(harvest::feature_matches_t::STATUS_NO_DESIRED, 1'000'000, 3'000'000);  // 2 s without a desired image
+  EXPECT_FALSE(approach.fell_back());
+  feed(harvest::feature_matches_t::STATUS_TOO_FEW, 3'020'000, 3'900'000);  // then 0.9 s of refused matches
+  EXPECT_FALSE(approach.fell_back()) << "the wait for the desired image counted as refusal";
+  feed(harvest::feature_matches_t::STATUS_TOO_FEW, 3'920'000, 4'100'000);
+  EXPECT_TRUE(approach.fell_back());
+
+  approach.reset();
+  feed(harvest::feature_matches_t::STATUS_NO_DESIRED, 5'000'000, 7'900'000);
+  EXPECT_FALSE(approach.fell_back());
+  feed(harvest::feature_matches_t::STATUS_NO_DESIRED, 7'920'000, 8'100'000);
+  EXPECT_TRUE(approach.fell_back()) << "no zoomed view at all: the reconstruction approach";
 }

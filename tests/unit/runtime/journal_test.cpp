@@ -98,7 +98,7 @@ TEST(TimerQueue, FireNowRunsATimerOutsideItsScheduleAndEndsAOneShot) {
 // what the live node did: the tick at its live time with input 1, not 2.
 TEST(JournalRunner, ReplaysInputsAndTimersInTheLiveOrderAtTheLiveTimes) {
   ht::TempDir dir;
-  const std::string in = (dir / "in.lcm").string(), out = (dir / "out.lcm").string();
+  const std::string in = (dir / "in.lcm").string();
   std::vector<rt::LogRecord> log;
   for (int i = 1; i <= 5; ++i)
     if (i != 4) log.push_back({kT0 + i * 15'000, "IN", ir(i, kT0 + i * 15'000)});
@@ -110,19 +110,21 @@ TEST(JournalRunner, ReplaysInputsAndTimersInTheLiveOrderAtTheLiveTimes) {
   };
   rt::Journal j;
   j.entries = {
-      {false, "IN", key(1), kT0 + 15'100},          // handled 0.1 ms after the logger's stamp
-      {true, "latest#0", 0, kT0 + 20'700},          // the tick due at +20 ms ran at +20.7
-      {true, "latest#0", 0, kT0 + 40'300},          // before input 2 reached this socket ...
-      {false, "IN", key(2), kT0 + 40'350},          // ... though the logger had it at +30 ms
-      {true, "latest#1", 0, kT0 + 50'200},          // the one-shot
+      {false, "IN", key(1), kT0 + 15'100},  // handled 0.1 ms after the logger's stamp
+      {true, "latest#0", 0, kT0 + 20'700},  // the tick due at +20 ms ran at +20.7
+      {true, "latest#0", 0, kT0 + 40'300},  // before input 2 reached this socket ...
+      {false, "IN", key(2), kT0 + 40'350},  // ... though the logger had it at +30 ms
+      {true, "latest#1", 0, kT0 + 50'200},  // the one-shot
       {false, "IN", key(3), kT0 + 55'020},
-      {false, "IN", key(4), kT0 + 60'010},          // lost by the logger
+      {false, "IN", key(4), kT0 + 60'010},  // lost by the logger
       {true, "latest#0", 0, kT0 + 60'500},
-      {true, "heartbeat#0", 0, kT0 + 61'000},       // the process's heartbeat: not replayed
+      {true, "heartbeat#0", 0, kT0 + 61'000},  // the process's heartbeat: not replayed
   };
   LatestNode node;
-  rt::JournalRunner runner(in, out, "", kT0);
-  const auto r = runner.run({&node}, j);
+  rt::JournalRunner runner("", kT0, j);
+  runner.add(node);
+  rt::replay_journals(in, {&runner});
+  const auto& r = runner.result();
   EXPECT_EQ(r.messages, 3);
   EXPECT_EQ(r.timers, 4);
   EXPECT_EQ(r.missing_inputs, 1);
@@ -131,7 +133,7 @@ TEST(JournalRunner, ReplaysInputsAndTimersInTheLiveOrderAtTheLiveTimes) {
   EXPECT_NE(r.missing[0].find("IN at " + std::to_string(kT0 + 60'010)), std::string::npos) << r.missing[0];
 
   std::vector<std::pair<int64_t, int32_t>> got;
-  for (const auto& rec : rt::read_log(out)) {
+  for (const auto& rec : runner.published()) {
     ASSERT_EQ(rec.channel, "OUT");
     const auto decoded = rt::decode<ir_range_t>(rec.data);
     ASSERT_TRUE(decoded);
@@ -141,6 +143,51 @@ TEST(JournalRunner, ReplaysInputsAndTimersInTheLiveOrderAtTheLiveTimes) {
   }
   const std::vector<std::pair<int64_t, int32_t>> want = {{20'700, 1}, {40'300, 1}, {50'200, -1}, {60'500, 3}};
   EXPECT_EQ(got, want);
+}
+
+// All journalled processes go through the log in one pass: two processes
+// handling the same recorded inputs in their own orders and moments each get
+// every one of them, and publish what each publishes replayed alone.
+TEST(JournalRunner, ProcessesReplayedInOnePassEachGetWhatTheyGetAlone) {
+  ht::TempDir dir;
+  const std::string in = (dir / "in.lcm").string();
+  std::vector<rt::LogRecord> log;
+  for (int i = 1; i <= 40; ++i) log.push_back({kT0 + i * 15'000, "IN", ir(i, kT0 + i * 15'000)});
+  rt::write_log(in, log);
+  auto key = [](int i) {
+    const auto m = ir(i, kT0 + i * 15'000);
+    return rt::journal_key(m.data(), m.size());
+  };
+  rt::Journal a, b;  // a handles every input 0.2 ms after the logger; b later, with its ticks between them
+  for (int i = 1; i <= 40; ++i) {
+    a.entries.push_back({false, "IN", key(i), kT0 + i * 15'000 + 200});
+    if (i % 2 == 0) b.entries.push_back({true, "latest#0", 0, kT0 + i * 15'000 + 1'000});
+    b.entries.push_back({false, "IN", key(i), kT0 + i * 15'000 + 3'000});
+    if (i % 3 == 0) a.entries.push_back({true, "latest#0", 0, kT0 + i * 15'000 + 500});
+  }
+  auto alone = [&](const rt::Journal& j) {
+    LatestNode node;
+    rt::JournalRunner r("", kT0, j);
+    r.add(node);
+    rt::replay_journals(in, {&r});
+    EXPECT_EQ(r.result().messages, 40);
+    return r.published();
+  };
+  LatestNode na, nb;
+  rt::JournalRunner ra("", kT0, a), rb("", kT0 + 10'000, b);
+  ra.add(na);
+  rb.add(nb);
+  rt::replay_journals(in, {&ra, &rb});
+  EXPECT_EQ(ra.result().messages, 40);
+  EXPECT_EQ(rb.result().messages, 40);
+  EXPECT_EQ(rb.result().missing_inputs, 0);
+  EXPECT_EQ(ra.published(), alone(a));
+  ASSERT_FALSE(rb.published().empty());
+  rt::JournalRunner rb_alone("", kT0 + 10'000, b);
+  LatestNode nb_alone;
+  rb_alone.add(nb_alone);
+  rt::replay_journals(in, {&rb_alone});
+  EXPECT_EQ(rb.published(), rb_alone.published());
 }
 
 // The logger loses a record now and then (a UDP datagram under load): each

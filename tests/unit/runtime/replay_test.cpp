@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <harvest/config_snapshot_t.hpp>
 #include <harvest/gripper_state_t.hpp>
 #include <harvest/process_status_t.hpp>
@@ -324,4 +325,41 @@ TEST(Replay, MissingLogIsAClearError) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/in.log"), std::string::npos);
   }
+}
+
+// The reader every replay uses maps the file and hands out views into it. It
+// reads what lcm's writer wrote, skips to the next sync word over damage (as
+// lcm's reader does) and ends at an event the logger did not finish.
+TEST(LogReader, ReadsWhatLcmWroteSkipsDamageAndEndsAtATruncatedEvent) {
+  ht::TempDir dir;
+  const std::vector<rt::LogRecord> records = {
+      {100, "A", {1, 2, 3}}, {200, "CHANNEL_B", {}}, {300, "A", std::vector<uint8_t>(70'000, 9)}};
+  const std::string path = (dir / "log.lcm").string();
+  rt::write_log(path, records);
+  std::string bytes;
+  {
+    std::ifstream f(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  auto read_all = [](const std::string& p) {
+    std::vector<rt::LogRecord> got;
+    rt::LogReader r(p);
+    for (const rt::LogView* e = r.next(); e != nullptr; e = r.next())
+      got.push_back({e->timestamp, std::string(e->channel), std::vector<uint8_t>(e->data, e->data + e->size)});
+    return got;
+  };
+  EXPECT_EQ(read_all(path), records);
+  EXPECT_EQ(rt::read_log(path), records);
+  const std::string later = (dir / "later.lcm").string();
+  EXPECT_EQ(rt::copy_log_from(path, later, 200), 1u);
+  EXPECT_EQ(rt::read_log(later), std::vector<rt::LogRecord>(records.begin() + 1, records.end()));
+
+  const std::string damaged = (dir / "damaged.lcm").string();
+  std::ofstream(damaged, std::ios::binary) << std::string("\x01\xED\xA1junk", 7) << bytes.substr(0, bytes.size() - 10);
+  EXPECT_EQ(read_all(damaged), std::vector<rt::LogRecord>(records.begin(), records.begin() + 2));
+
+  const std::string empty = (dir / "empty.lcm").string();
+  std::ofstream(empty).close();
+  EXPECT_TRUE(read_all(empty).empty());
+  EXPECT_THROW(rt::LogReader((dir / "absent.lcm").string()), std::runtime_error);
 }
