@@ -83,17 +83,21 @@ std::vector<LogRecord> read_log(const std::string& path) {
   return out;
 }
 
+bool write_event(lcm::LogFile& f, Micros timestamp, const std::string& channel, const void* data, std::size_t size) {
+  lcm::LogEvent ev{};
+  ev.timestamp = timestamp;
+  ev.channel = channel;
+  ev.datalen = static_cast<int32_t>(size);
+  ev.data = const_cast<void*>(data);
+  return f.writeEvent(&ev) == 0;
+}
+
 void write_log(const std::string& path, const std::vector<LogRecord>& records) {
   lcm::LogFile f(path, "w");
   if (!f.good()) throw std::runtime_error("cannot create log " + path);
-  for (const auto& r : records) {
-    lcm::LogEvent ev{};
-    ev.timestamp = r.timestamp;
-    ev.channel = r.channel;
-    ev.datalen = static_cast<int32_t>(r.data.size());
-    ev.data = const_cast<uint8_t*>(r.data.data());
-    if (f.writeEvent(&ev) != 0) throw std::runtime_error("cannot write log " + path);
-  }
+  for (const auto& r : records)
+    if (!write_event(f, r.timestamp, r.channel, r.data.data(), r.data.size()))
+      throw std::runtime_error("cannot write log " + path);
 }
 
 std::size_t copy_log_from(const std::string& in, const std::string& out, Micros from) {
@@ -101,17 +105,15 @@ std::size_t copy_log_from(const std::string& in, const std::string& out, Micros 
   lcm::LogFile f(out, "w");
   if (!f.good()) throw std::runtime_error("cannot create log " + out);
   std::size_t before = 0;
+  std::string channel;  // reused: no allocation per event
   for (const LogView* ev = r.next(); ev != nullptr; ev = r.next()) {
     if (ev->timestamp < from) {
       ++before;
       continue;
     }
-    lcm::LogEvent e{};
-    e.timestamp = ev->timestamp;
-    e.channel.assign(ev->channel);
-    e.datalen = static_cast<int32_t>(ev->size);
-    e.data = const_cast<uint8_t*>(ev->data);
-    if (f.writeEvent(&e) != 0) throw std::runtime_error("cannot write log " + out);
+    channel.assign(ev->channel);
+    if (!write_event(f, ev->timestamp, channel, ev->data, ev->size))
+      throw std::runtime_error("cannot write log " + out);
   }
   return before;
 }

@@ -12,6 +12,10 @@
 #include "runtime/clock.hpp"
 #include "runtime/wire_check.hpp"
 
+namespace lcm {
+class LogFile;
+}
+
 namespace harvest::rt {
 
 struct LogRecord {
@@ -52,6 +56,9 @@ class LogReader {
   std::size_t size_ = 0, pos_ = 0;
   LogView view_;
 };
+
+// Appends one event (the writer numbers it); false if it could not be written.
+bool write_event(lcm::LogFile& f, Micros timestamp, const std::string& channel, const void* data, std::size_t size);
 
 // Throws std::runtime_error naming the file if it cannot be read.
 std::vector<LogRecord> read_log(const std::string& path);

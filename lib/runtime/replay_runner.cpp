@@ -25,15 +25,9 @@ void ReplayRunner::request_stop(int exit_code) {
 void ReplayRunner::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
   ++result_.messages_published;
   if (out_) {
-    lcm::LogEvent ev{};
-    ev.eventnum = 0;  // the writer numbers events itself
-    ev.timestamp = clock_.now();
-    ev.channel = full_channel(channel);
-    ev.datalen = static_cast<int32_t>(size);
-    ev.data = const_cast<void*>(data);
     // Thrown here it would be caught at the handler boundary and counted like
     // a node's error; a replay that cannot write its output must stop instead.
-    if (out_->writeEvent(&ev) != 0) {
+    if (!write_event(*out_, clock_.now(), full_channel(channel), data, size)) {
       write_failed_ = true;
       stop_ = true;
     }
@@ -90,14 +84,7 @@ ReplayResult ReplayRunner::run() {
     clock_.set(std::max(clock_.now(), ev->timestamp));
     result_.last_time = clock_.now();
     channel.assign(ev->channel);
-    if (options_.copy_inputs && out_) {
-      lcm::LogEvent copy{};
-      copy.timestamp = ev->timestamp;
-      copy.channel = channel;
-      copy.datalen = static_cast<int32_t>(ev->size);
-      copy.data = const_cast<uint8_t*>(ev->data);
-      out_->writeEvent(&copy);
-    }
+    if (options_.copy_inputs && out_) write_event(*out_, ev->timestamp, channel, ev->data, ev->size);
     if (channel.compare(0, prefix().size(), prefix()) != 0) continue;  // not the recorded graph's
     logical.assign(channel, prefix().size());
     if (advertised().count(logical) && !options_.isolated) {  // regenerated: not fed in
