@@ -43,7 +43,7 @@ DIAM_SCALE = 32.0  # diameter channel is log(d / DIAM_SCALE), d in input pixels
 
 class FruitNet(nn.Module):
     """Two stride-2 convolutions to 1/4 resolution, then dilated convolutions
-    (receptive field ~ 140 px, a whole fruit at --width 320) and a 1x1 head."""
+    (receptive field ~ 270 px: the whole of a close-up fruit at --width 320) and a 1x1 head."""
 
     def __init__(self, c=32):
         super().__init__()
@@ -52,7 +52,7 @@ class FruitNet(nn.Module):
             return [nn.Conv2d(i, o, 3, s, d, dilation=d, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
 
         layers = block(3, 16, 2) + block(16, 24, 2) + block(24, c) + block(c, c, d=2) + block(c, c, d=4)
-        layers += block(c, c, d=8) + block(c, c, d=1)
+        layers += block(c, c, d=8) + block(c, c, d=16) + block(c, c, d=1)
         self.body = nn.Sequential(*layers)
         self.head = nn.Conv2d(c, 3, 1)
         self.head.bias.data[0] = -4.0  # centres are rare: start the heatmap near 0
@@ -198,8 +198,12 @@ def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0
     return net
 
 
-def decode(out, threshold=0.3):
-    """Peaks of the heatmap above threshold (3x3 maximum) -> [(u, v, d, score)] in input pixels.
+MERGE_WITHIN = 0.75  # learned_keys::merge_within (C++)
+
+
+def decode(out, threshold=0.3, merge_within=MERGE_WITHIN):
+    """Peaks of the heatmap above threshold (3x3 maximum) -> [(u, v, d, score)] in input pixels, strongest
+    first; a weaker peak within merge_within of the larger radius from a kept one is the same fruit.
     Same rules as LearnedDetector::decode (C++)."""
     heat = torch.sigmoid(out[0])
     peak = F.max_pool2d(heat[None, None], 3, 1, 1)[0, 0]
@@ -212,7 +216,14 @@ def decode(out, threshold=0.3):
         u = float((w * gx).sum() / w.sum() + 0.5) * STRIDE
         v = float((w * gy).sum() / w.sum() + 0.5) * STRIDE
         res.append((u, v, DIAM_SCALE * math.exp(float(out[1, y, x])), float(heat[y, x])))
-    return res
+    res.sort(key=lambda r: -r[3])  # stable: ties keep the row-major order, as the C++ does
+    if merge_within <= 0:
+        return res
+    kept = []
+    for r in res:
+        if all(math.hypot(r[0] - k[0], r[1] - k[1]) >= merge_within * 0.5 * max(r[2], k[2]) for k in kept):
+            kept.append(r)
+    return kept
 
 
 def match(dets, boxes):
@@ -238,26 +249,45 @@ def pad4(img):
     return img[: h - h % STRIDE, : w - w % STRIDE]
 
 
-def score(net, items):
+THRESHOLDS = [round(0.15 + 0.05 * i, 2) for i in range(12)]  # 0.15 .. 0.70, the grid a threshold is chosen from
+
+
+def predict(net, items, threshold=min(THRESHOLDS)):
+    """Each item's detections at the lowest threshold of the grid (a higher one keeps a prefix: the merge
+    only looks at stronger fruit)."""
+    with torch.no_grad():
+        return [decode(net(normalise(pad4(img))[None])[0], threshold) for _, img, _ in items]
+
+
+def score(net, items, threshold=0.3, preds=None):
+    """(true positives, detections, fruit, centre errors, diameter errors) at `threshold`."""
     tp = nd = nb = 0
     cerr, derr = [], []
-    with torch.no_grad():
-        for _, img, boxes in items:
-            img = pad4(img)
-            dets = decode(net(normalise(img)[None])[0])
-            pairs = match(dets, boxes)
-            hidden = {j for _, j in pairs if boxes[j][4] < SCORED_VISIBLE}  # neither found nor missed
-            pairs = [(i, j) for i, j in pairs if j not in hidden]
-            tp = tp + len(pairs)
-            nd = nd + len(dets) - len(hidden)
-            nb = nb + int((boxes[:, 4] >= SCORED_VISIBLE).sum())
-            for i, j in pairs:
-                x1, y1, x2, y2, _ = boxes[j]
-                u, v, d, _ = dets[i]
-                bd = (x2 - x1 + y2 - y1) / 2
-                cerr.append(math.hypot(u - (x1 + x2) / 2, v - (y1 + y2) / 2) / bd)
-                derr.append(abs(d - bd) / bd)
+    preds = preds if preds is not None else predict(net, items)
+    for (_, img, boxes), all_dets in zip(items, preds):
+        dets = [d for d in all_dets if d[3] >= threshold]
+        pairs = match(dets, boxes)
+        hidden = {j for _, j in pairs if boxes[j][4] < SCORED_VISIBLE}  # neither found nor missed
+        pairs = [(i, j) for i, j in pairs if j not in hidden]
+        tp = tp + len(pairs)
+        nd = nd + len(dets) - len(hidden)
+        nb = nb + int((boxes[:, 4] >= SCORED_VISIBLE).sum())
+        for i, j in pairs:
+            x1, y1, x2, y2, _ = boxes[j]
+            u, v, d, _ = dets[i]
+            bd = (x2 - x1 + y2 - y1) / 2
+            cerr.append(math.hypot(u - (x1 + x2) / 2, v - (y1 + y2) / 2) / bd)
+            derr.append(abs(d - bd) / bd)
     return tp, nd, nb, cerr, derr
+
+
+def f1(tp, nd, nb):
+    return 2 * tp / max(nd + nb, 1)
+
+
+def best_threshold(counts):
+    """The grid threshold of highest F1 over summed (tp, detections, fruit) per threshold; ties: the lower."""
+    return max(THRESHOLDS, key=lambda t: (f1(*counts[t]), -t))
 
 
 def export(net, path):
@@ -271,7 +301,7 @@ def main():
     ap.add_argument("--data", required=True, help="folder with boxes.csv and images/")
     ap.add_argument("--out", required=True, help="ONNX file to write")
     ap.add_argument("--width", type=int, default=320, help="photos are scaled to this width")
-    ap.add_argument("--steps", type=int, default=1500)
+    ap.add_argument("--steps", type=int, default=3500)
     ap.add_argument("--folds", type=int, default=0, help="k-fold cross-validation first (0: none)")
     ap.add_argument("--seed", type=int, default=19)
     ap.add_argument("--threads", type=int, default=1)
@@ -309,21 +339,31 @@ def main():
             for k in range(a.folds):
                 for i in sorted(order[k :: a.folds]):
                     f.write(f"{items[i][0]},{os.path.basename(a.out).replace('.onnx', f'.fold{k}.onnx')}\n")
+        per_fold = []  # per fold: {threshold: (tp, detections, fruit)} on its test photos
         for k in range(a.folds):
-            test = set(order[k :: a.folds])
-            log(f"fold {k}: {len(test)} test photos: " + " ".join(items[i][0] for i in sorted(test)))
-            net = train_with([it for i, it in enumerate(items) if i not in test], a.seed + 1 + k)
+            test = [items[i] for i in sorted(order[k :: a.folds])]
+            log(f"fold {k}: {len(test)} test photos: " + " ".join(it[0] for it in test))
+            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], a.seed + 1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
-            r = score(net, [items[i] for i in sorted(test)])
-            for i in range(5):
-                tot[i] += r[i]
-            log(f"fold {k}: R {r[0] / max(r[2], 1):.3f} P {r[0] / max(r[1], 1):.3f} ({r[0]} of {r[2]} boxes, {r[1]} detections)")
+            preds = predict(net, test)
+            per_fold.append({t: score(net, test, t, preds)[:3] for t in THRESHOLDS})
+            log(f"fold {k}: " + ", ".join(f"t {t}: R {c[0] / max(c[2], 1):.3f} P {c[0] / max(c[1], 1):.3f}"
+                                          for t, c in per_fold[-1].items()))
             if sim_test:
-                report(f"fold {k} on rendered frames", score(net, sim_test))
-        tp, nd, nb, ce, de = tot
-        R, P = tp / nb, tp / max(nd, 1)
-        log(f"cross-validated ({a.folds}-fold): R {R:.3f} P {P:.3f} F1 {2 * R * P / max(R + P, 1e-9):.3f}; "
-            f"centre error median {np.median(ce):.3f} D, diameter error median {np.median(de):.3f} D")
+                report(f"fold {k} on rendered frames (threshold 0.3)", score(net, sim_test))
+        add = lambda cs: tuple(sum(c[i] for c in cs) for i in range(3))
+        line = lambda what, c: log(f"{what}: R {c[0] / max(c[2], 1):.3f} P {c[0] / max(c[1], 1):.3f} "
+                                   f"F1 {f1(*c):.3f} ({c[0]} of {c[2]} fruit, {c[1]} detections)")
+        line(f"cross-validated ({a.folds}-fold), threshold 0.3", add([pf[0.3] for pf in per_fold]))
+        # Nested: fold k's threshold is chosen on the other folds' held-out photos only (scored by their own
+        # models, which did train on fold k's photos: fold k's boxes never choose its threshold).
+        chosen = [best_threshold({t: add([pf[t] for j, pf in enumerate(per_fold) if j != k]) for t in THRESHOLDS})
+                  for k in range(a.folds)]
+        line(f"cross-validated, threshold chosen on the other folds ({', '.join(map(str, chosen))})",
+             add([pf[t] for pf, t in zip(per_fold, chosen)]))
+        best = best_threshold({t: add([pf[t] for pf in per_fold]) for t in THRESHOLDS})
+        log(f"threshold for the final model (best F1 over all folds' held-out photos): {best}"
+            " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")
     if a.folds_only:
         return
     net = train_with(items, a.seed)

@@ -145,7 +145,9 @@ SiteSpec load_site(const config::Node& root, const std::filesystem::path& set_fi
   return site;
 }
 
-// Replaces ${KEY} with the site's value; records the keys used.
+// Replaces ${KEY} with the site's value, ${KEY:-DEFAULT} with DEFAULT when
+// the site has no KEY (a choice with a sound default, not a device); records
+// the keys used.
 std::string substitute(const std::string& text, const SiteSpec& site, const std::string& where,
                        std::vector<std::string>& used) {
   std::string out;
@@ -155,8 +157,17 @@ std::string substitute(const std::string& text, const SiteSpec& site, const std:
     if (start == std::string::npos) break;
     const std::size_t end = text.find('}', start);
     if (end == std::string::npos) throw config::Error(where + ": '" + text + "': unterminated ${");
-    const std::string key = text.substr(start + 2, end - start - 2);
+    std::string key = text.substr(start + 2, end - start - 2);
+    const std::size_t dash = key.find(":-");
+    const std::optional<std::string> fallback =
+        dash == std::string::npos ? std::nullopt : std::optional<std::string>(key.substr(dash + 2));
+    if (fallback) key.resize(dash);
     const auto it = site.values.find(key);
+    if (it == site.values.end() && fallback) {
+      out += text.substr(pos, start - pos) + *fallback;
+      pos = end + 1;
+      continue;
+    }
     if (it == site.values.end())
       throw config::Error(where + ": ${" + key + "} is not a site value (" +
                           (site.file.empty() ? std::string("the set names no site file; give `site:` in the set or "

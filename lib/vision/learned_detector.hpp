@@ -2,7 +2,8 @@
 // small fully convolutional network (tools/train_detector.py) run through
 // OpenCV dnn from an ONNX file. It maps the image, scaled to a fixed width,
 // to three maps at 1/4 resolution: fruit-centre heatmap, log fruit diameter
-// and fruit mask. Fruits are the heatmap's 3x3 maxima above a threshold.
+// and fruit mask. Fruits are the heatmap's 3x3 maxima above a threshold; a
+// weaker maximum inside a stronger fruit's disc is the same fruit.
 #pragma once
 
 #include <filesystem>
@@ -26,12 +27,17 @@ inline constexpr Key<int> input_width{"input_width", 320, {16, 4096}, "px",
                                       "mode learned: frames are scaled to this width (the training scale)"};
 inline constexpr Key<double> threshold{"threshold", 0.3, {0.01, 1.0}, "",
                                        "mode learned: heatmap peaks below this are not fruit"};
+inline constexpr Key<double> merge_within{
+    "merge_within", 0.75, {0.0, 2.0}, "radii",
+    "mode learned: a weaker peak this close to a stronger fruit's centre, in the larger of the two radii, is the "
+    "same fruit (0: off)"};
 }  // namespace learned_keys
 
 struct LearnedConfig {
   std::filesystem::path model;  // ONNX file
   int input_width = learned_keys::input_width.fallback;
   double threshold = learned_keys::threshold.fallback;
+  double merge_within = learned_keys::merge_within.fallback;
 };
 
 class LearnedDetector {
@@ -52,7 +58,7 @@ class LearnedDetector {
   // network's size (parity test with PyTorch).
   cv::Mat forward(const cv::Mat3b& bgr);
 
-  // Peaks of raw maps -> fruits in network-input pixels.
+  // Peaks of raw maps -> fruits in network-input pixels, strongest first.
   std::vector<Fruit> decode(const cv::Mat& maps) const;
 
  private:

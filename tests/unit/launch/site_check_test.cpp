@@ -115,6 +115,20 @@ TEST(SiteCheck, SplitsSiteOverridesFromSetOverrides) {
   EXPECT_EQ(set, (std::vector<std::string>{"recording.enabled=true", "site=../site/x.yaml"}));
 }
 
+// ${KEY:-DEFAULT}: a choice with a sound default (the detector mode) need not
+// be in every robot's site file; the site's value wins when it is.
+TEST(SiteCheck, ADefaultStandsInForAMissingSiteValue) {
+  testing::TempDir dir;
+  std::ofstream(dir / "site.yaml") << "camera: /dev/null\n";
+  std::ofstream(dir / "set.yaml") << "site: site.yaml\nprocesses:\n"
+                                     "  - {name: det, command: x, args: ['mode=${mode:-learned}', '${camera:-/dev/zero}']}\n";
+  const SetSpec s = load_set(dir / "set.yaml");
+  EXPECT_EQ(s.processes[0].args, (std::vector<std::string>{"mode=learned", "/dev/null"}));
+  SiteOverrides over;
+  over.assignments = {"mode=canopy"};
+  EXPECT_EQ(load_set(dir / "set.yaml", {}, over).processes[0].args[0], "mode=canopy");
+}
+
 TEST(SiteCheck, RefusesUnknownKeysAndBadSiteFilesClearly) {
   testing::TempDir dir;
   auto error = [&](const std::string& site_yaml, const SiteOverrides& over = {}) -> std::string {
@@ -164,6 +178,8 @@ TEST(SiteCheck, ShippedFieldSetsUseTheSiteFile) {
   const SetSpec vision = load_set(testing::source_path("config/sets/field-vision.yaml"));
   EXPECT_EQ(vision.site.used_by.at("camera-fixed"), std::vector<std::string>{"camera_fixed"});
   EXPECT_EQ(vision.site.used_by.at("camera-hand"), std::vector<std::string>{"camera_hand"});
+  EXPECT_EQ(vision.processes[2].args.back(), "detector.mode=learned");  // the network on the canopy view
+  EXPECT_EQ(vision.processes[3].args.back(), "detector.mode=canopy");
 }
 
 }  // namespace

@@ -128,6 +128,49 @@ TEST(LearnedDetector, FindsRenderedFruitWithDiameterAndDepth) {
   EXPECT_GE(d.selected, 0);
 }
 
+// Raw maps (1x3x16x16) by hand: heatmap logits 0 (p 0.5) at the given cells,
+// -10 elsewhere, log diameter log(d / 32) (a peak's own if given), mask 0.
+cv::Mat hand_maps(const std::vector<std::pair<int, int>>& peaks, const std::vector<float>& logits, double d,
+                  const std::vector<double>& peak_d = {}) {
+  const int size[] = {1, 3, 16, 16};
+  cv::Mat maps(4, size, CV_32F);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      maps.ptr<float>(0, 0, y)[x] = -10;
+      maps.ptr<float>(0, 1, y)[x] = static_cast<float>(std::log(d / LearnedDetector::kDiameterScale));
+      maps.ptr<float>(0, 2, y)[x] = 0;
+    }
+  for (std::size_t i = 0; i < peaks.size(); ++i) {
+    maps.ptr<float>(0, 0, peaks[i].second)[peaks[i].first] = logits[i];
+    if (i < peak_d.size())
+      maps.ptr<float>(0, 1, peaks[i].second)[peaks[i].first] =
+          static_cast<float>(std::log(peak_d[i] / LearnedDetector::kDiameterScale));
+  }
+  return maps;
+}
+
+// Two peaks of one large fruit are one fruit (the stronger); two fruit side by
+// side stay two. Diameter 40 px, radius 20 px, merge_within 0.75: peaks 3
+// cells (12 px) apart merge (12 < 15); 4 cells (16 px) apart do not.
+TEST(LearnedDetector, AWeakerPeakInsideAStrongerFruitIsTheSameFruit) {
+  LearnedDetector det(model(kModel));
+  const std::vector<Fruit> one = det.decode(hand_maps({{5, 5}, {8, 5}}, {-0.5f, 1.0f}, 40));
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_NEAR(one[0].u, 8.5 * 4, 1e-4);  // the stronger, at its cell centre (neighbours ~0)
+  EXPECT_NEAR(one[0].confidence, 1 / (1 + std::exp(-1.0)), 1e-6);
+  const std::vector<Fruit> two = det.decode(hand_maps({{5, 5}, {9, 5}}, {-0.5f, 1.0f}, 40));
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_GT(two[0].confidence, two[1].confidence);  // strongest first
+  EXPECT_NEAR(two[1].u, 5.5 * 4, 1e-4);
+  LearnedConfig off = model(kModel);
+  off.merge_within = 0;
+  EXPECT_EQ(LearnedDetector(off).decode(hand_maps({{5, 5}, {8, 5}}, {-0.5f, 1.0f}, 40)).size(), 2u);
+  // The larger radius counts: a weaker 16 px fruit 12 px from a stronger 40 px one is inside it, and so is
+  // a weaker 40 px one 12 px from a stronger 16 px one.
+  EXPECT_EQ(det.decode(hand_maps({{5, 5}, {8, 5}}, {-0.5f, 1.0f}, 40, {16, 40})).size(), 1u);
+  EXPECT_EQ(det.decode(hand_maps({{5, 5}, {8, 5}}, {-0.5f, 1.0f}, 40, {40, 16})).size(), 1u);
+}
+
 TEST(LearnedDetector, NoConfidentFruitOnPlainLeaves) {
   FruitDetector det(DetectorConfig::learned_mode(kModel), kFx, kFy);
   for (const Fruit& f : det.detect(orchard_frame({})).fruits) EXPECT_LT(f.confidence, 0.4) << f.u << "," << f.v;
