@@ -21,7 +21,10 @@ did not see (folds fixed by a seeded shuffle), prints the cross-validated
 figures and writes the fold models next to --out (fruit_net.fold<i>.onnx,
 and folds.csv, for harvest-detect --evaluate --fold-models); then trains the final model on
 all photos. Hyper-parameters were chosen before any fold was scored and are
-not tuned on them (the decode threshold is fixed at 0.3).
+not tuned on them. The decode threshold is chosen from a grid by F1: for
+fold k on the other folds' held-out photos only (nested: fold k's boxes never
+choose the threshold it is scored at; folds.csv carries it per image), for
+the final model on all folds' held-out photos (set it as detector.threshold).
 """
 import argparse
 import csv
@@ -361,6 +364,12 @@ def main():
                   for k in range(a.folds)]
         line(f"cross-validated, threshold chosen on the other folds ({', '.join(map(str, chosen))})",
              add([pf[t] for pf, t in zip(per_fold, chosen)]))
+        with open(fold_csv, "w") as f:  # now with each fold's threshold
+            f.write("image,model,threshold\n")
+            for k in range(a.folds):
+                for i in sorted(order[k :: a.folds]):
+                    model = os.path.basename(a.out).replace(".onnx", f".fold{k}.onnx")
+                    f.write(f"{items[i][0]},{model},{chosen[k]}\n")
         best = best_threshold({t: add([pf[t] for pf in per_fold]) for t in THRESHOLDS})
         log(f"threshold for the final model (best F1 over all folds' held-out photos): {best}"
             " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")

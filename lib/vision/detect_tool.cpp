@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -90,22 +91,34 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<std::pair<std::string, std::filesystem::path>> read_fold_models(const std::filesystem::path& csv) {
+std::vector<std::pair<std::string, FoldModel>> read_fold_models(const std::filesystem::path& csv) {
   std::ifstream in(csv);
   if (!in) throw std::runtime_error("cannot read " + csv.string());
-  std::vector<std::pair<std::string, std::filesystem::path>> out;
+  std::vector<std::pair<std::string, FoldModel>> out;
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (number == 1 || line.empty()) continue;  // header image,model
+    if (number == 1 || line.empty()) continue;  // header image,model[,threshold]
+    const std::string where = csv.string() + " line " + std::to_string(number);
     const auto comma = line.find(',');
     if (comma == std::string::npos || comma == 0 || comma + 1 == line.size())
-      throw std::runtime_error(csv.string() + " line " + std::to_string(number) + ": expected image,model");
-    std::filesystem::path model = line.substr(comma + 1);
-    if (model.is_relative()) model = csv.parent_path() / model;
-    out.emplace_back(line.substr(0, comma), model);
+      throw std::runtime_error(where + ": expected image,model[,threshold]");
+    const auto comma2 = line.find(',', comma + 1);
+    FoldModel fm;
+    fm.model = line.substr(comma + 1, comma2 == std::string::npos ? std::string::npos : comma2 - comma - 1);
+    if (fm.model.empty()) throw std::runtime_error(where + ": expected image,model[,threshold]");
+    if (fm.model.is_relative()) fm.model = csv.parent_path() / fm.model;
+    if (comma2 != std::string::npos) {
+      const std::string t = line.substr(comma2 + 1);
+      char* end = nullptr;
+      const double v = std::strtod(t.c_str(), &end);
+      if (t.empty() || *end != '\0' || !(v > 0 && v <= 1))
+        throw std::runtime_error(where + ": threshold '" + t + "' is not a number in (0, 1]");
+      fm.threshold = v;
+    }
+    out.emplace_back(line.substr(0, comma), fm);
   }
   return out;
 }
@@ -121,7 +134,8 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     return 2;
   }
   // Cross-validation: every image is scored by a model trained without it; an image without one is refused.
-  std::map<std::string, std::filesystem::path> fold_model;
+  std::map<std::string, FoldModel> fold_model;
+  const double threshold = config.detector.learned.threshold;
   if (!options.fold_models.empty()) {
     if (config.detector.mode != DetectorConfig::Mode::learned) {
       err << "harvest-detect: --fold-models needs detector.mode learned\n";
@@ -154,7 +168,9 @@ int run_evaluation(const DetectToolOptions& options, std::ostream& out, std::ost
     }
     Detections d;
     if (!fold_model.empty()) {
-      config.detector.learned.model = fold_model.at(name);
+      const FoldModel& fm = fold_model.at(name);
+      config.detector.learned.model = fm.model;
+      config.detector.learned.threshold = fm.threshold.value_or(threshold);
       try {
         d = detect_file_image(config, img);
       } catch (const std::exception& e) {

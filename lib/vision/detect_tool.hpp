@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iosfwd>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,14 +21,21 @@ struct DetectToolOptions {
   std::vector<std::string> images;
   std::filesystem::path evaluate_csv;  // boxes to score against (evaluation mode); empty: off
   std::filesystem::path images_dir;    // where the CSV's images are; default <csv folder>/images
-  // Cross-validation of mode learned: a CSV "image,model" naming for each
-  // image the ONNX model whose training did not see it (paths relative to
-  // the CSV's folder); written by tools/train_detector.py --folds. Empty: off.
+  // Cross-validation of mode learned: a CSV "image,model[,threshold]"
+  // naming for each image the ONNX model whose training did not see it
+  // (paths relative to the CSV's folder) and the threshold chosen without
+  // its fold (else detector.threshold); written by tools/train_detector.py
+  // --folds. Empty: off.
   std::filesystem::path fold_models;
 };
 
-// Per image of a fold-models CSV, its model. Throws std::runtime_error naming the file and line.
-std::vector<std::pair<std::string, std::filesystem::path>> read_fold_models(const std::filesystem::path& csv);
+struct FoldModel {
+  std::filesystem::path model;
+  std::optional<double> threshold;
+};
+
+// Per image of a fold-models CSV, its model and threshold. Throws std::runtime_error naming the file and line.
+std::vector<std::pair<std::string, FoldModel>> read_fold_models(const std::filesystem::path& csv);
 
 // {"image": PATH, "width": W, "height": H, "fruits": [{"u", "v", "diameter_px", "depth_m", "confidence", "selected"}]}
 std::string detections_json(const std::string& image, int width, int height, const Detections& d);

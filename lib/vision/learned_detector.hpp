@@ -28,7 +28,10 @@ inline constexpr Key<int> input_width{"input_width", 320, {16, 4096}, "px",
 inline constexpr Key<double> threshold{"threshold", 0.3, {0.01, 1.0}, "",
                                        "mode learned: heatmap peaks below this are not fruit"};
 inline constexpr Key<double> merge_within{
-    "merge_within", 0.75, {0.0, 2.0}, "radii",
+    "merge_within",
+    0.75,
+    {0.0, 2.0},
+    "radii",
     "mode learned: a weaker peak this close to a stronger fruit's centre, in the larger of the two radii, is the "
     "same fruit (0: off)"};
 }  // namespace learned_keys

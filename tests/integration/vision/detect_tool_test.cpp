@@ -181,6 +181,21 @@ TEST_F(DetectTool, FoldModelsScoreEachImageWithItsOwnModel) {
   ASSERT_EQ(summary.size(), 1u) << out;
   EXPECT_EQ(summary[0]["summary"]["images"], 2);
   EXPECT_TRUE(summary[0]["summary"]["f1"].is_number()) << summary[0];
+
+  // A third column is the threshold chosen without the image's fold: 1 lets
+  // nothing through; a's 0.01 keeps its fruit whatever detector.threshold says.
+  std::ofstream(dir / "thresholds.csv") << "image,model,threshold\na.png," << model << ",0.01\nb.png," << model
+                                        << ",1\n";
+  auto strict = with(learned, "thresholds.csv");
+  strict.insert(strict.end(), {"--set", "detector.threshold=1"});
+  EXPECT_EQ(run(strict, &out), 0) << out;
+  const auto per_image = objects_with(out, "image");
+  ASSERT_EQ(per_image.size(), 2u) << out;
+  EXPECT_GE(per_image[0]["fruits"], 1) << per_image[0];
+  EXPECT_EQ(per_image[1]["fruits"], 0) << per_image[1];
+  std::ofstream(dir / "badthreshold.csv") << "image,model,threshold\na.png," << model << ",high\n";
+  EXPECT_EQ(run(with(learned, "badthreshold.csv"), &out), 2) << out;
+  EXPECT_NE(out.find("badthreshold.csv line 2: threshold 'high' is not a number in (0, 1]"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -120,8 +120,9 @@ TEST(SiteCheck, SplitsSiteOverridesFromSetOverrides) {
 TEST(SiteCheck, ADefaultStandsInForAMissingSiteValue) {
   testing::TempDir dir;
   std::ofstream(dir / "site.yaml") << "camera: /dev/null\n";
-  std::ofstream(dir / "set.yaml") << "site: site.yaml\nprocesses:\n"
-                                     "  - {name: det, command: x, args: ['mode=${mode:-learned}', '${camera:-/dev/zero}']}\n";
+  std::ofstream(dir / "set.yaml")
+      << "site: site.yaml\nprocesses:\n"
+         "  - {name: det, command: x, args: ['mode=${mode:-learned}', '${camera:-/dev/zero}']}\n";
   const SetSpec s = load_set(dir / "set.yaml");
   EXPECT_EQ(s.processes[0].args, (std::vector<std::string>{"mode=learned", "/dev/null"}));
   SiteOverrides over;
