@@ -31,7 +31,7 @@ struct FeatureTrackerConfig {
   // Where features may be: "image" (everywhere) or "fruit" (the selected
   // fruit's box from fruit_channel, grown by fruit_margin on every side).
   std::string region = "image";
-  double fruit_margin = 0.2;     // fraction of the box size
+  double fruit_margin = 0.2;  // fraction of the box size
   // region fruit: matches verify only within this share of the fruit's
   // radius from its centre (its face; 0: anywhere in the region). The
   // outline and what is beside it match on natural fruit, the face does not

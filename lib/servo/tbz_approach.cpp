@@ -111,8 +111,8 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   if (!frames_.empty())
     std::snprintf(share, sizeof share, "; %d of %zu frames verified in the last %.1f s", verified, frames_.size(),
                   params_.fallback_after_s);
-  fallback_note_ = "teach by zooming impossible (" + refusal_ + share +
-                   "), falling back to the 3D-reconstruction approach";
+  fallback_note_ =
+      "teach by zooming impossible (" + refusal_ + share + "), falling back to the 3D-reconstruction approach";
   out = fallback_.update(in);
   out.note = fallback_note_;
   return out;

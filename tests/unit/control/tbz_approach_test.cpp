@@ -225,8 +225,8 @@ TEST(TbzApproach, FallsBackWhenMatchesVerifyOnlyNowAndThen) {
   Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();
   camera.translation() = Vector3d(0.02, 0, -0.05);
   auto input = [&](int64_t now) {
-    return s::ApproachInput{now, tool, camera, Vector3d(0.03, -0.01, 0.5), s::PixelMeasurement{380.0, 230.0, now},
-                            std::nullopt};
+    return s::ApproachInput{
+        now, tool, camera, Vector3d(0.03, -0.01, 0.5), s::PixelMeasurement{380.0, 230.0, now}, std::nullopt};
   };
   harvest::feature_matches_t refused{};
   refused.status = harvest::feature_matches_t::STATUS_TOO_FEW;

@@ -1,8 +1,9 @@
 // Desired (zoomed) image <-> camera-in-hand image: ORB, ratio test, our
 // RANSAC homography, Lucas-Kanade refinement; explicit status when it fails.
+#include "features/matcher.hpp"
+
 #include <gtest/gtest.h>
 
-#include "features/matcher.hpp"
 #include "synthetic.hpp"
 
 namespace f = harvest::features;
