@@ -74,6 +74,22 @@ Tally match_from(const sim::Scenario& s, const sim::Scene& scene, sim::SimCamera
 }  // namespace
 
 TEST(TbzFruitFace, NaturalPeelNeverVerifiesTheStickerDoesAtHomeAndNear) {
+  {  // The two scenarios differ in the sticker only (the comparison below means nothing otherwise).
+    const sim::Scenario a = sim::load_scenario("config/scenarios/tbz.yaml");
+    const sim::Scenario b = sim::load_scenario("config/scenarios/tbz_natural.yaml");
+    ASSERT_EQ(a.fruit.size(), 1u);
+    ASSERT_EQ(b.fruit.size(), 1u);
+    EXPECT_GT(a.fruit[0].sticker, 0.0);
+    EXPECT_EQ(b.fruit[0].sticker, 0.0);
+    EXPECT_EQ(a.seed, b.seed);
+    EXPECT_EQ(a.fruit[0].position, b.fruit[0].position);
+    EXPECT_EQ(a.fruit[0].diameter, b.fruit[0].diameter);
+    EXPECT_EQ(a.canopy.leaves, b.canopy.leaves);
+    EXPECT_EQ(a.zoom.distance, b.zoom.distance);
+    EXPECT_EQ(a.zoom.rate_hz, b.zoom.rate_hz);
+    EXPECT_EQ(a.arm.start_tool_position, b.arm.start_tool_position);
+    EXPECT_EQ(a.arm.start_look_at, b.arm.start_look_at);
+  }
   for (const char* file : {"config/scenarios/tbz.yaml", "config/scenarios/tbz_natural.yaml"}) {
     const sim::Scenario s = sim::load_scenario(file);
     const bool sticker = s.fruit.front().sticker > 0;
