@@ -35,7 +35,7 @@ struct FeatureTrackerConfig {
   // region fruit: matches verify only within this share of the fruit's
   // radius from its centre (its face; 0: anywhere in the region). The
   // outline and what is beside it match on natural fruit, the face does not
-  // (docs/teach-by-zooming.md: every such match was beyond 0.85 of the radius).
+  // (docs/teach-by-zooming.md: every such match was beyond 0.84 of the radius).
   double face_fraction = 0.7;
   double fruit_max_age_s = 0.5;  // older detections do not define a region
   bool matching = true;          // publish FEATURE_MATCHES
