@@ -143,16 +143,16 @@ void DesiredImageMatcher::set_desired(const cv::Mat1b& gray, const cv::Rect& reg
   box_pyr_ = Pyramid(desired_(box_).clone(), std::max(params_.track_levels, 1));
 }
 
-MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect& region) {
+MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect& region, const Disc& face) {
   MatchResult r;
   if (last_G_ && params_.track && !corners_.empty()) {
-    r = track(current, region, *last_G_);
+    r = track(current, region, face, *last_G_);
     if (r.ok()) {
       last_G_ = r.G;
       return r;
     }
   }
-  r = detect(current, region);
+  r = detect(current, region, face);
   if (r.ok())
     last_G_ = r.G;
   else
@@ -160,7 +160,8 @@ MatchResult DesiredImageMatcher::match(const cv::Mat1b& current, const cv::Rect&
   return r;
 }
 
-MatchResult DesiredImageMatcher::track(const cv::Mat1b& current, const cv::Rect& region, const cv::Matx33d& G) const {
+MatchResult DesiredImageMatcher::track(const cv::Mat1b& current, const cv::Rect& region, const Disc& face,
+                                       const cv::Matx33d& G) const {
   MatchResult r;
   r.tracked = true;
   // The box of the desired image, seen in the current image through G
@@ -179,6 +180,7 @@ MatchResult DesiredImageMatcher::track(const cv::Mat1b& current, const cv::Rect&
     if (!res[i].found) continue;
     const cv::Point2f c = apply(to_current, res[i].pt);
     if (region.area() > 0 && !region.contains(cv::Point(cvFloor(c.x), cvFloor(c.y)))) continue;
+    if (!face.empty() && !face.contains(c)) continue;
     cand_d.push_back(corners_[i]);
     cand_c.push_back(c);
   }
@@ -222,7 +224,7 @@ MatchResult DesiredImageMatcher::track(const cv::Mat1b& current, const cv::Rect&
   return r;
 }
 
-MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect& region) const {
+MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect& region, const Disc& face) const {
   MatchResult r;
   if (desired_.empty()) {
     r.status = MatchStatus::kNoDesired;
@@ -232,7 +234,7 @@ MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect
   std::vector<cv::KeyPoint> kp;
   cv::Mat desc;
   orb_->detectAndCompute(current, region_mask(current.size(), region), kp, desc);
-  std::vector<cv::Point2f> cand_d, cand_c;
+  std::vector<cv::Point2f> cand_d, cand_c, off_d, off_c;  // off: outside the face
   if (!desc.empty() && !desired_desc_.empty()) {
     CV_Assert(desc.type() == CV_8U && desc.cols == 32 && desired_desc_.cols == 32 && desc.isContinuous() &&
               desired_desc_.isContinuous());
@@ -244,22 +246,31 @@ MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect
       if (j < 0) continue;
       if (desc.rows > 1 && nn.best_dist[k] >= params_.ratio * nn.second_dist[k]) continue;
       if (params_.mutual && nn.back[static_cast<std::size_t>(j)] != i) continue;
-      cand_d.push_back(desired_kp_[k].pt);
-      cand_c.push_back(kp[static_cast<std::size_t>(j)].pt);
+      const cv::Point2f& c = kp[static_cast<std::size_t>(j)].pt;
+      const bool on_face = face.empty() || face.contains(c);
+      (on_face ? cand_d : off_d).push_back(desired_kp_[k].pt);
+      (on_face ? cand_c : off_c).push_back(c);
     }
   }
-  r.num_candidates = static_cast<int>(cand_d.size());
+  r.num_off_face = static_cast<int>(off_d.size());
+  r.num_candidates = static_cast<int>(cand_d.size()) + r.num_off_face;
+  // Matches off the face are reported after the rejected ones, never verified.
+  const std::string off_it = r.num_off_face > 0 ? ", " + std::to_string(r.num_off_face) + " off it" : "";
   auto too_few = [&](const std::string& why) {
     r.status = MatchStatus::kTooFew;
     r.text = why;
     r.desired = cand_d;
     r.current = cand_c;
+    r.desired.insert(r.desired.end(), off_d.begin(), off_d.end());
+    r.current.insert(r.current.end(), off_c.begin(), off_c.end());
     r.num_inliers = 0;
     return r;
   };
-  if (r.num_candidates < 4)
-    return too_few(std::to_string(r.num_candidates) + " descriptor matches (" + std::to_string(desired_kp_.size()) +
-                   " desired, " + std::to_string(kp.size()) + " current keypoints); need >= 4 for a homography");
+  const int on_face = static_cast<int>(cand_d.size());
+  if (on_face < 4)
+    return too_few(std::to_string(on_face) + " descriptor matches" + (face.empty() ? "" : " on the fruit's face") +
+                   off_it + " (" + std::to_string(desired_kp_.size()) + " desired, " + std::to_string(kp.size()) +
+                   " current keypoints); need >= 4 for a homography");
 
   geo::RansacParams rp;
   rp.threshold_px = params_.ransac_threshold_px;
@@ -271,11 +282,14 @@ MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect
     r.text = "matches are degenerate (collinear or coincident)";
     r.desired = cand_d;
     r.current = cand_c;
+    r.desired.insert(r.desired.end(), off_d.begin(), off_d.end());
+    r.current.insert(r.current.end(), off_c.begin(), off_c.end());
     return r;
   }
   if (!fit.ok() || fit.num_inliers < params_.min_inliers)
-    return too_few(std::to_string(fit.num_inliers) + " of " + std::to_string(r.num_candidates) +
-                   " matches consistent with one homography; need >= " + std::to_string(params_.min_inliers));
+    return too_few(std::to_string(fit.num_inliers) + " of " + std::to_string(on_face) + " matches" +
+                   (face.empty() ? "" : " on the fruit's face") + " consistent with one homography" + off_it +
+                   "; need >= " + std::to_string(params_.min_inliers));
 
   std::vector<cv::Point2f> in_d, in_c, out_d, out_c;
   for (std::size_t i = 0; i < cand_d.size(); ++i) {
@@ -327,11 +341,14 @@ MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect
   r.num_inliers = static_cast<int>(in_d.size());
   r.rms_px = fit.rms_error_px;
   r.G = G;
-  r.text = std::to_string(r.num_inliers) + " of " + std::to_string(r.num_candidates) + " matches verified";
+  r.text = std::to_string(r.num_inliers) + " of " + std::to_string(r.num_candidates) + " matches verified" +
+           (r.num_off_face > 0 ? ", " + std::to_string(r.num_off_face) + " off the fruit's face" : "");
   r.desired = std::move(in_d);
   r.current = std::move(in_c);
   r.desired.insert(r.desired.end(), out_d.begin(), out_d.end());
   r.current.insert(r.current.end(), out_c.begin(), out_c.end());
+  r.desired.insert(r.desired.end(), off_d.begin(), off_d.end());
+  r.current.insert(r.current.end(), off_c.begin(), off_c.end());
   return r;
 }
 

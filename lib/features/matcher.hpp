@@ -55,6 +55,21 @@ struct MatcherParams {
   double track_min_fraction = 0.5;   // fewer of the corners verified: detect afresh
 };
 
+// The selected fruit's face in the current image: a disc inside its
+// outline. Features on the outline belong to the silhouette (peel against
+// whatever is behind it), which slides over the fruit with every change of
+// viewpoint, and features beside it are leaves: neither is the target's
+// texture. On natural fruit they are all a matcher finds (docs/teach-by-zooming.md).
+struct Disc {
+  cv::Point2f centre;
+  float radius = 0;  // <= 0: no disc, everywhere
+  bool empty() const { return !(radius > 0); }
+  bool contains(const cv::Point2f& p) const {
+    const float dx = p.x - centre.x, dy = p.y - centre.y;
+    return dx * dx + dy * dy <= radius * radius;
+  }
+};
+
 enum class MatchStatus : int8_t { kOk = 0, kTooFew = 1, kNoDesired = 2, kDegenerate = 3 };
 const char* to_string(MatchStatus s);
 
@@ -66,6 +81,7 @@ struct MatchResult {
   std::vector<cv::Point2f> desired, current;
   int num_inliers = 0;
   int num_candidates = 0;              // descriptor matches before verification
+  int num_off_face = 0;                // of those, outside the face (never verified)
   cv::Matx33d G = cv::Matx33d::eye();  // desired -> current, valid when status is kOk
   double rms_px = 0;
   bool tracked = false;  // from the previous frame's homography (step 4), not detected afresh
@@ -82,16 +98,18 @@ class DesiredImageMatcher {
   int desired_keypoints() const { return static_cast<int>(desired_kp_.size()); }
   int desired_corners() const { return static_cast<int>(corners_.size()); }
   // Matches one frame of a sequence. `region` (empty = whole image) limits
-  // where current points may be. The result depends on the frames before
-  // (step 4): the same sequence gives the same results.
-  MatchResult match(const cv::Mat1b& current, const cv::Rect& region = {});
+  // where current keypoints may be; `face` (empty = anywhere), where the
+  // current points of matches may be: a match outside it is not verified
+  // (it is reported among the rejected ones). The result depends on the
+  // frames before (step 4): the same sequence gives the same results.
+  MatchResult match(const cv::Mat1b& current, const cv::Rect& region = {}, const Disc& face = {});
   // Forget the previous frame: the next match is detected afresh.
   void reset_tracking() { last_G_.reset(); }
   const MatcherParams& params() const { return params_; }
 
  private:
-  MatchResult detect(const cv::Mat1b& current, const cv::Rect& region) const;
-  MatchResult track(const cv::Mat1b& current, const cv::Rect& region, const cv::Matx33d& G) const;
+  MatchResult detect(const cv::Mat1b& current, const cv::Rect& region, const Disc& face) const;
+  MatchResult track(const cv::Mat1b& current, const cv::Rect& region, const Disc& face, const cv::Matx33d& G) const;
 
   MatcherParams params_;
   cv::Ptr<cv::ORB> orb_;

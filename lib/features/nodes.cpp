@@ -78,6 +78,10 @@ constexpr config::Choice region{"region", "image", {"image", "fruit"},
                                 "track in the whole image or around the selected fruit"};
 constexpr Key<double> fruit_margin{"fruit_margin", 0.2, {0.0, 10.0}, "",
                                    "region fruit: margin around the box, a fraction of its size"};
+constexpr Key<double> face_fraction{
+    "face_fraction", 0.7, {0.0, 1.0}, "",
+    "region fruit: matches count only this near the fruit's centre, a share of its radius (its face, not its outline; "
+    "0: anywhere in the region)"};
 constexpr Key<double> fruit_max_age_s{"fruit_max_age_s", 0.5, {0.0, 3600.0}, "s",
                                       "older detections do not define a region"};
 constexpr Key<bool> matching{"matching", true, {}, "", "match against the desired image: FEATURE_MATCHES"};
@@ -143,6 +147,7 @@ FeatureTrackerConfig FeatureTrackerConfig::from_yaml(const config::Node& n) {
   c.matches_channel = n.get(kn::matches_channel);
   c.region = n.get(kn::region);
   c.fruit_margin = n.get(kn::fruit_margin);
+  c.face_fraction = n.get(kn::face_fraction);
   c.fruit_max_age_s = n.get(kn::fruit_max_age_s);
   c.matching = n.get(kn::matching);
   c.max_frame_age_s = n.get(kn::max_frame_age_s);
@@ -155,7 +160,7 @@ std::vector<config::Section> FeatureTrackerConfig::schema() {
   const std::string where = "harvest-feature-tracker, config/features/feature_tracker.yaml (docs/feature-tracker.md).";
   return {config::section("feature_tracker", where, kn::camera, kn::image_channel, kn::desired_channel,
                           kn::fruit_channel, kn::tracks_channel, kn::matches_channel, kn::region, kn::fruit_margin,
-                          kn::fruit_max_age_s, kn::matching, kn::max_frame_age_s),
+                          kn::face_fraction, kn::fruit_max_age_s, kn::matching, kn::max_frame_age_s),
           config::section("feature_tracker.tracker", where, kt::max_features, kt::min_features),
           config::section("feature_tracker.tracker.corners", where, kc::window, kc::min_eigenvalue, kc::quality_level,
                           kc::min_distance_px, kc::border_px),
@@ -190,7 +195,8 @@ void FeatureTrackerNode::on_fruit(const fruit_detections_t& fruit) {
   fruit_received_ = now();
 }
 
-cv::Rect FeatureTrackerNode::region_for(const image_t& image, const cv::Size& size) const {
+cv::Rect FeatureTrackerNode::region_for(const image_t& image, const cv::Size& size, Disc* face) const {
+  *face = {};
   if (config_.region != "fruit") return {};
   if (!fruit_ || fruit_->status != fruit_detections_t::STATUS_OK || fruit_->selected_index < 0 ||
       fruit_->selected_index >= fruit_->num_fruits ||
@@ -205,6 +211,9 @@ cv::Rect FeatureTrackerNode::region_for(const image_t& image, const cv::Size& si
                        (f.bbox_px[3] + 2 * my) * sy);
   cv::Rect r(cvFloor(box.x), cvFloor(box.y), cvCeil(box.width), cvCeil(box.height));
   r &= cv::Rect(0, 0, size.width, size.height);
+  if (config_.face_fraction > 0.0)
+    *face = {cv::Point2f(static_cast<float>((f.u_px - roi.x) * sx), static_cast<float>((f.v_px - roi.y) * sy)),
+             static_cast<float>(config_.face_fraction * 0.5 * f.diameter_px * 0.5 * (sx + sy))};
   return r;
 }
 
@@ -246,7 +255,8 @@ void FeatureTrackerNode::on_image(const image_t& image) {
   const cv::Rect2d roi = camera::image_roi(image);
   const double sx = roi.width / gray.cols, sy = roi.height / gray.rows;
   const bool fruit_mode = config_.region == "fruit";
-  cv::Rect region = region_for(image, gray.size());
+  Disc face;
+  cv::Rect region = region_for(image, gray.size(), &face);
 
   TrackerUpdate u;
   if (fruit_mode && region.area() == 0) {
@@ -283,7 +293,7 @@ void FeatureTrackerNode::on_image(const image_t& image) {
     set_health(rt::Health::kOk, std::to_string(tracks.num_features) + " features");
     return;
   }
-  const MatchResult m = matcher_.match(gray, fruit_mode ? region : cv::Rect());
+  const MatchResult m = matcher_.match(gray, fruit_mode ? region : cv::Rect(), face);
   feature_matches_t out{};
   out.header = tracks.header;
   out.status = static_cast<int8_t>(m.status);

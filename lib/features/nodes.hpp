@@ -31,7 +31,12 @@ struct FeatureTrackerConfig {
   // Where features may be: "image" (everywhere) or "fruit" (the selected
   // fruit's box from fruit_channel, grown by fruit_margin on every side).
   std::string region = "image";
-  double fruit_margin = 0.2;     // fraction of the box size
+  double fruit_margin = 0.2;  // fraction of the box size
+  // region fruit: matches verify only within this share of the fruit's
+  // radius from its centre (its face; 0: anywhere in the region). The
+  // outline and what is beside it match on natural fruit, the face does not
+  // (docs/teach-by-zooming.md: every such match was beyond 0.84 of the radius).
+  double face_fraction = 0.7;
   double fruit_max_age_s = 0.5;  // older detections do not define a region
   bool matching = true;          // publish FEATURE_MATCHES
   // > 0: a camera frame older than this on arrival (by the node's clock) is
@@ -61,7 +66,8 @@ class FeatureTrackerNode : public rt::Node {
   void on_desired(const image_t& image);
   std::array<double, 4> desired_roi_{0, 0, 1, 1};  // the desired image's roi x, y and sensor pixels per pixel
   void on_fruit(const fruit_detections_t& fruit);
-  cv::Rect region_for(const image_t& image, const cv::Size& size) const;
+  // The selected fruit's box grown by fruit_margin, and its face (empty without one).
+  cv::Rect region_for(const image_t& image, const cv::Size& size, Disc* face) const;
 
   FeatureTrackerConfig config_;
   FeatureTracker tracker_;

@@ -128,6 +128,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.tbz.desired_depth_estimate = tz.get(k::tbz::desired_depth_estimate);
   c.tbz.max_match_age_s = tz.get(k::tbz::max_match_age_s);
   c.tbz.fallback_after_s = tz.get(k::tbz::fallback_after_s);
+  c.tbz.min_verified_share = tz.get(k::tbz::min_verified_share);
   c.tbz.desired_wait_s = tz.get(k::tbz::desired_wait_s);
   c.tbz.arrived_rotation = tz.get(k::tbz::arrived_rotation);
   c.tbz.arrived_translation = tz.get(k::tbz::arrived_translation);
@@ -215,7 +216,8 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit, k::sway::max_centre_offset, k::sway::close_delay,
                       k::sway::close_tolerance, k::sway::max_wait),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
-                      k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::desired_wait_s, k::tbz::arrived_rotation,
+                      k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
+                      k::tbz::desired_wait_s, k::tbz::arrived_rotation,
                       k::tbz::arrived_translation),
       security::AuthorityConfig::schema("servo_controller.authority", where, security::AuthorityConfig::kSender)};
 }

@@ -132,6 +132,7 @@ inline constexpr Key<double> lambda_v{"lambda_v", 0.25, {0.0, 1000.0}, "", "tran
 inline constexpr Key<double> desired_depth_estimate{"desired_depth_estimate", 0.25, {0.01, 10.0}, "m", "Z*_1 hat: the sticker's depth at the goal, roughly"};
 inline constexpr Key<double> max_match_age_s{"max_match_age_s", 0.3, {0.01, 10.0}, "s", "older FEATURE_MATCHES do not steer"};
 inline constexpr Key<double> fallback_after_s{"fallback_after_s", 1.5, {0.0, 60.0}, "s", "no usable matches this long: the 3D-reconstruction approach for this fruit"};
+inline constexpr Key<double> min_verified_share{"min_verified_share", 0.5, {0.0, 1.0}, "", "fewer verified FEATURE_MATCHES than this share of those in the last fallback_after_s: the same (spurious matches verify now and then)"};
 inline constexpr Key<double> desired_wait_s{"desired_wait_s", 5.0, {0.0, 60.0}, "s", "no desired (zoomed) image yet this long: the 3D-reconstruction approach for this fruit (the zoomed view comes at the zoom camera's rate)"};
 inline constexpr Key<double> arrived_rotation{"arrived_rotation", 0.0175, {0.0, 1.0}, "rad", "|e_w| at or below this ..."};
 inline constexpr Key<double> arrived_translation{"arrived_translation", 0.01, {0.0, 1.0}, "", "... and |e_v| at or below this: at the goal, IR guidance from there"};
@@ -308,6 +309,7 @@ struct ServoConfig {
     double desired_depth_estimate = servo_keys::tbz::desired_depth_estimate.fallback;
     double max_match_age_s = servo_keys::tbz::max_match_age_s.fallback;
     double fallback_after_s = servo_keys::tbz::fallback_after_s.fallback;
+    double min_verified_share = servo_keys::tbz::min_verified_share.fallback;
     double desired_wait_s = servo_keys::tbz::desired_wait_s.fallback;
     double arrived_rotation = servo_keys::tbz::arrived_rotation.fallback;
     double arrived_translation = servo_keys::tbz::arrived_translation.fallback;

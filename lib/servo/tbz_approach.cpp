@@ -18,6 +18,7 @@ TbzApproachParams tbz_params_from(const ServoConfig& config) {
   p.controller.desired_depth_estimate = config.tbz.desired_depth_estimate;
   p.max_match_age_s = config.tbz.max_match_age_s;
   p.fallback_after_s = config.tbz.fallback_after_s;
+  p.min_verified_share = config.tbz.min_verified_share;
   p.desired_wait_s = config.tbz.desired_wait_s;
   p.arrived_rotation = config.tbz.arrived_rotation;
   p.arrived_translation = config.tbz.arrived_translation;
@@ -51,9 +52,20 @@ void TbzApproach::reset() {
   started_at_.reset();
   stepped_at_.reset();
   fallback_note_.clear();
+  frames_.clear();
+  first_frame_.reset();
 }
 
-void TbzApproach::on_matches(const feature_matches_t& m) { matches_ = m; }
+void TbzApproach::on_matches(const feature_matches_t& m) {
+  matches_ = m;
+  // Counted from the approach's start (before it the arm may be turning fast),
+  // once there is a desired image to verify against.
+  if (!started_at_ || m.status == feature_matches_t::STATUS_NO_DESIRED) return;
+  if (!first_frame_) first_frame_ = m.header.utime;
+  frames_.emplace_back(m.header.utime, m.status == feature_matches_t::STATUS_OK);
+  while (frames_.front().first < m.header.utime - static_cast<rt::Micros>(params_.fallback_after_s * 1e6))
+    frames_.pop_front();
+}
 
 ApproachOutput TbzApproach::update(const ApproachInput& in) {
   if (in.forward_speed || fell_back_) {  // IR guidance, or no features on this fruit: as the reconstruction approach
@@ -80,7 +92,14 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   auto& since = no_desired_ ? no_desired_since_ : refusing_since_;
   if (!since) since = in.now;
   const double refusing_s = rt::to_seconds(in.now - *since);
-  if (refusing_s < (no_desired_ ? params_.desired_wait_s : params_.fallback_after_s)) {
+  // The share of verified frames, once they have been watched for fallback_after_s.
+  const auto window = static_cast<rt::Micros>(params_.fallback_after_s * 1e6);
+  while (!frames_.empty() && frames_.front().first < in.now - window) frames_.pop_front();
+  int verified = 0;
+  for (const auto& f : frames_) verified += f.second;
+  const bool few_verified = !no_desired_ && first_frame_ && in.now - *first_frame_ >= window && !frames_.empty() &&
+                            verified < params_.min_verified_share * static_cast<double>(frames_.size());
+  if (refusing_s < (no_desired_ ? params_.desired_wait_s : params_.fallback_after_s) && !few_verified) {
     // A frame or two without matches is not news (HARVEST_STATUS goes out on every change of the note).
     out.note = refusing_s < 0.5 * params_.fallback_after_s ? "teach by zooming"
                                                            : "teach by zooming: waiting (" + refusal_ + ")";
@@ -88,7 +107,12 @@ ApproachOutput TbzApproach::update(const ApproachInput& in) {
   }
   // The thesis's finding (section 5.7): no features to match on natural fruit. Approach it as without TBZ.
   fell_back_ = true;
-  fallback_note_ = "teach by zooming impossible (" + refusal_ + "), falling back to the 3D-reconstruction approach";
+  char share[96] = "";
+  if (!frames_.empty())
+    std::snprintf(share, sizeof share, "; %d of %zu frames verified in the last %.1f s", verified, frames_.size(),
+                  params_.fallback_after_s);
+  fallback_note_ =
+      "teach by zooming impossible (" + refusal_ + share + "), falling back to the 3D-reconstruction approach";
   out = fallback_.update(in);
   out.note = fallback_note_;
   return out;

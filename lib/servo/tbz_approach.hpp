@@ -17,6 +17,7 @@
 // the fruit on the gripper axis), as after any approach.
 #pragma once
 
+#include <deque>
 #include <optional>
 
 #include "control/tbz_controller.hpp"
@@ -37,6 +38,11 @@ struct TbzApproachParams {
   // As ServoConfig::Tbz: |e_w| is u theta, |e_v| normalised pixels and the log depth ratio (eq. 5-55).
   double max_match_age_s = 0.3;
   double fallback_after_s = 1.5;
+  // A verified frame now and then does not make a target: spurious matches
+  // (leaves, a silhouette) verify sporadically. Also fall back when fewer than
+  // this share of the FEATURE_MATCHES of the last fallback_after_s were
+  // verified (a stickered fruit: 86-100 %; docs/teach-by-zooming.md).
+  double min_verified_share = 0.5;
   // Without a desired image there is nothing to match yet, no sign that the
   // fruit lacks features: the zoomed view comes at the zoom camera's rate (0.5
   // Hz in the simulator, its first frame 2 s after start), and a controller in
@@ -81,6 +87,10 @@ class TbzApproach final : public ApproachStrategy {
   ReconstructionApproach fallback_;
   bool fell_back_ = false;
   std::optional<rt::Micros> refusing_since_, no_desired_since_, started_at_, stepped_at_;
+  // FEATURE_MATCHES with a desired image since the approach started:
+  // (utime, verified) of the last fallback_after_s, and the first one's utime.
+  std::deque<std::pair<rt::Micros, bool>> frames_;
+  std::optional<rt::Micros> first_frame_;
   std::string fallback_note_;
 };
 
