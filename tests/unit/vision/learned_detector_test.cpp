@@ -101,7 +101,7 @@ TEST(LearnedDetector, OutputEqualsPyTorchWithin1e4) {
 
 // Fruit at the training scale (55..70 px once the frame is scaled to 320
 // wide). The synthetic leaf noise draws weak answers (measured <= 0.35 with
-// the committed model) that the threshold 0.3 lets through; the fruit are
+// the committed model) that a threshold of 0.35 or less lets through; the fruit are
 // the two most confident detections.
 TEST(LearnedDetector, FindsRenderedFruitWithDiameterAndDepth) {
   const std::vector<Truth> truth{{200, 200, 140}, {450, 300, 110}};
