@@ -74,7 +74,9 @@ class HarvestMachine {
   }
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
-    ir_.on_reading(msg, now, state_ == State::kIrApproach);
+    // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
+    // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
+    ir_.on_reading(msg, now, state_ == State::kIrApproach && sway_.spread() <= cfg_.sway.hold_spread);
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);

@@ -43,6 +43,24 @@ TEST_P(SwayingFruit, IsWatchedFromTheStandoffThenPicked) {
 
 INSTANTIATE_TEST_SUITE_P(ClosedLoop, SwayingFruit, ::testing::Values(0.0, 1.0, 2.0, 3.0, 4.0, 5.0));
 
+// The fold-back rule (a near reading, then a far one: the fruit inside the
+// gripper) is off for a fruit seen to sway: in tree_wind every close it made
+// closed beside or short of one, as a swaying fruit leaves the beam too. The
+// cost, shown here: with a sensor that folds back above the grasp range (at
+// 36 mm) a swaying fruit is never closed on; the still fruit of
+// IrFoldBackJumpIsTheFruitInsideTheGraspRange is.
+TEST(ClosedLoop, AFoldBackJumpDoesNotCloseOnASwayingFruit) {
+  WorldSpec spec = swaying(1.0);
+  spec.ir_fold_back_below_m = 0.036;
+  ServoConfig cfg = test_config();
+  cfg.ir_grasp_range = 0.035;  // as IrFoldBackJumpIsTheFruitInsideTheGraspRange: the jump from 36-55 mm
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_FALSE(loop.world.close_position().has_value());
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::FAILED_GRASP) << loop.outcome(1)->detail;
+}
+
 // A still fruit is not held: IR guidance goes straight in as without wind.
 TEST(ClosedLoop, StillFruitIsNotHeldOff) {
   Loop loop(experiment_one());
