@@ -11,6 +11,12 @@
 #include "servo/harvest/status.hpp"
 
 namespace harvest::servo {
+namespace {
+
+// Braking toward the standoff the arm nears it ever more slowly: within this it is there [m].
+constexpr double kAtStandoff = 0.01;
+
+}  // namespace
 
 HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
     : cfg_(std::move(config)),
@@ -200,6 +206,8 @@ bool HarvestMachine::take_next(const Selection& s, MachineOutput& out) {
   approach_note_.clear();
   hand_.forget_fruit();
   sway_.reset();
+  hold_since_.reset();
+  held_ = false;
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
   return true;
@@ -528,7 +536,7 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
   const Eigen::Isometry3d t = tool();
   // Waiting to close on a swaying fruit: the IR said "inside" already (its reading changes as the fruit swings).
   const IrStep s = close_wait_since_ ? IrStep{IrStep::Action::kClose, 0.0, 0.0, std::nullopt}
-                                     : ir_.step(now, t, *current_, hand_.fruit_in_front(now));
+                                     : ir_.step(now, t, *current_, hand_.fruit_in_front(now), sway_hold(now, t, out));
   if (s.note) {
     note_ = *s.note;
     out.status_changed = true;
@@ -575,6 +583,35 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
           twist(approach_->update({now, t, camera(), current_->estimate, hand_.fresh(now), s.forward_speed}).twist);
       break;
   }
+}
+
+std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out) {
+  // The centring follows the fruit's mean over gains.sway_window, but IR guidance takes about a second, less than
+  // a period of a slow sway: the mean of part of a swing lies up to 3/4 of its amplitude off the sway's middle, and
+  // the jaws close beside a fruit that swings on (docs/servo-controller.md, "A fruit in the wind"). A fruit seen to
+  // sway is watched from the standoff, the arm at rest and the fruit whole in the image, until the mean is over
+  // whole periods; then the approach goes in on it.
+  const ServoConfig::Sway& p = cfg_.sway;
+  if (held_ || p.hold_standoff <= 0.0 || p.hold_time <= 0.0) return std::nullopt;
+  if (!hold_since_) {
+    // Not a fruit cut by a leaf (its depth from the rays' crossing, the size disagreed): the standoff would be
+    // measured from a doubtful depth, and the hand camera's views of it are pieces.
+    const double spread = sway_.spread();
+    if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing) return std::nullopt;
+    const double ahead = (current_->estimate - tool.translation()).dot(tool.rotation().col(2));
+    if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
+    if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on
+      held_ = true;
+      return std::nullopt;
+    }
+    hold_since_ = now;
+    note_ = fmt::format("swaying ({:.0f} mm rms across the axis): held {:.0f} mm short of it for {:.1f} s",
+                        spread * 1e3, ahead * 1e3, p.hold_time);
+    out.status_changed = true;
+  }
+  if (now - *hold_since_ < rt::from_seconds(p.hold_time)) return p.hold_standoff;
+  held_ = true;
+  return std::nullopt;
 }
 
 void HarvestMachine::feed_sway(rt::Micros now) {

@@ -74,7 +74,9 @@ class HarvestMachine {
   }
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
-    ir_.on_reading(msg, now, state_ == State::kIrApproach);
+    // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
+    // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
+    ir_.on_reading(msg, now, state_ == State::kIrApproach && sway_.spread() <= cfg_.sway.hold_spread);
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
@@ -140,6 +142,8 @@ class HarvestMachine {
   void grasp_step(MachineOutput& out);
   // IR_APPROACH: a new hand-camera view of the current fruit goes to the sway estimator.
   void feed_sway(rt::Micros now);
+  // Whether IR guidance stands off the current fruit now, and how far (sway.hold_*).
+  std::optional<double> sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out);
 
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
@@ -186,6 +190,8 @@ class HarvestMachine {
   SwayEstimator sway_;
   rt::Micros sway_fed_ = 0;                     // the newest hand image the estimator has (its utime)
   std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
+  std::optional<rt::Micros> hold_since_;        // standing off the swaying current fruit since ...
+  bool held_ = false;                           // ... and done: it has been watched (once per fruit)
 
   State state_ = State::kIdle;
   bool paused_ = false;

@@ -148,6 +148,9 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.max_centre_offset = sw.get(ks::max_centre_offset);
   c.sway.close_delay = sw.get(ks::close_delay);
   c.sway.close_tolerance = sw.get(ks::close_tolerance);
+  c.sway.hold_spread = sw.get(ks::hold_spread);
+  c.sway.hold_standoff = sw.get(ks::hold_standoff);
+  c.sway.hold_time = sw.get(ks::hold_time);
   c.sway.max_wait = sw.get(ks::max_wait);
   if (c.sway.max_frequency_hz < c.sway.min_frequency_hz)
     sw.fail("max_frequency_hz", "a frequency no lower than min_frequency_hz");
@@ -214,7 +217,8 @@ std::vector<config::Section> ServoConfig::schema() {
       config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span,
                       k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit, k::sway::max_centre_offset, k::sway::close_delay,
-                      k::sway::close_tolerance, k::sway::max_wait),
+                      k::sway::close_tolerance, k::sway::hold_spread, k::sway::hold_standoff, k::sway::hold_time,
+                      k::sway::max_wait),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
                       k::tbz::desired_wait_s, k::tbz::arrived_rotation,

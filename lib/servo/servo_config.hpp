@@ -124,7 +124,10 @@ inline constexpr Key<int> learn_fruit{"learn_fruit", 3, {1, 1000}, "", "after th
 inline constexpr Key<double> max_centre_offset{"max_centre_offset", 0.03, {0.0, 1.0}, "m", "a fit whose sway centre lies farther off the gripper axis disagrees with the IR and the centring: closed on at once"};
 inline constexpr Key<double> close_delay{"close_delay", 0.6, {0.0, 5.0}, "s", "from the close command to the jaws meeting the fruit"};
 inline constexpr Key<double> close_tolerance{"close_tolerance", 0.006, {0.0, 0.1}, "m", "close a swaying fruit when predicted this near the gripper axis at the end of the close ..."};
-inline constexpr Key<double> max_wait{"max_wait", 1.5, {0.0, 10.0}, "s", "... or nearest within this wait, held still at the grasp range (0: close at once, no timing)"};
+inline constexpr Key<double> hold_spread{"hold_spread", 0.0025, {0.0, 1.0}, "m", "positions seen under IR guidance spread more than this (rms about their mean): the fruit sways, and the approach holds ..."};
+inline constexpr Key<double> hold_standoff{"hold_standoff", 0.2, {0.0, 1.0}, "m", "... this far short of it (its centre ahead of the tool point; 0: never holds) ..."};
+inline constexpr Key<double> hold_time{"hold_time", 2.5, {0.0, 30.0}, "s", "... this long, centring on its mean, before going in (at least gains.sway_window and one sway period)"};
+inline constexpr Key<double> max_wait{"max_wait", 0.0, {0.0, 10.0}, "s", "... or nearest within this wait, held still at the grasp range (0: close at once, no timing)"};
 }  // namespace sway
 namespace tbz {  // approach_mode tbz
 inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {0.0, 100.0}, "1/s", "rotation gain (eq. 5-44)"};
@@ -300,6 +303,9 @@ struct ServoConfig {
     double max_centre_offset = servo_keys::sway::max_centre_offset.fallback;  // [m]
     double close_delay = servo_keys::sway::close_delay.fallback;          // [s]
     double close_tolerance = servo_keys::sway::close_tolerance.fallback;  // [m]
+    double hold_spread = servo_keys::sway::hold_spread.fallback;          // [m]
+    double hold_standoff = servo_keys::sway::hold_standoff.fallback;      // [m]
+    double hold_time = servo_keys::sway::hold_time.fallback;              // [s]
     double max_wait = servo_keys::sway::max_wait.fallback;                // [s]
   } sway;
   // approach_mode tbz (servo/tbz_approach.hpp, docs/teach-by-zooming.md).

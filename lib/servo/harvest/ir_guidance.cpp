@@ -39,7 +39,8 @@ void IrGuidance::on_reading(const ir_range_t& msg, rt::Micros now, bool guiding)
   }
 }
 
-double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit) const {
+double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit,
+                                 std::optional<double> hold_at) const {
   // Fast while far, then braking at a constant rate, so the arm reaches the
   // grasp range slowly: the stop overshoots by v^2 / 2a plus the travel
   // during one IR period. The IR range (palm to fruit surface) ends at the
@@ -49,13 +50,25 @@ double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fru
   // and the arm must not speed up into it.
   double to_go = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2));
   if (ir_sees_fruit) to_go = std::min(to_go, static_cast<double>(ir_->range_m) - cfg_.ir_grasp_range);
+  if (hold_at) {
+    // Standing off a swaying fruit: no floor, the arm comes to rest there.
+    const double to_hold = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2)) - *hold_at;
+    return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, std::min(to_go, to_hold))), 0.0,
+                      cfg_.ir_approach_speed);
+  }
   return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, to_go)), cfg_.ir_min_speed,
                     cfg_.ir_approach_speed);
 }
 
 IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit,
-                        std::optional<double> fruit_in_front) {
+                        std::optional<double> fruit_in_front, std::optional<double> hold_at) {
   IrStep out;
+  // The fold-back rule reads a tool moving in: a leaf or a neighbour in the beam of one standing off a fruit, then
+  // gone from it as the tool moves again, is no fruit inside.
+  if (hold_at) {
+    folded_ = false;
+    last_near_.reset();
+  }
   const bool ir_fresh = ir_ && now - ir_rx_ <= rt::from_seconds(cfg_.timeouts.ir_stale);
   const bool at_grasp_range =
       (ir_fresh && (ir_->validity == ir_range_t::VALID || ir_->validity == ir_range_t::TOO_NEAR) &&
@@ -99,7 +112,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // timeouts.stall is blocked (the arm at the edge of its reach, a joint
   // limit) and waits out nothing.
   const Eigen::Vector3d p = tool.translation();
-  if ((p - progress_from_).norm() > cfg_.ir_progress_step) {
+  if ((p - progress_from_).norm() > cfg_.ir_progress_step || hold_at) {  // holding off a fruit is no stall
     progress_from_ = p;
     progress_at_ = now;
   }
@@ -113,7 +126,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
     return out;
   }
   out.action = IrStep::Action::kAdvance;
-  out.forward_speed = forward_speed(tool, fruit, ir_->validity == ir_range_t::VALID && !leaf);
+  out.forward_speed = forward_speed(tool, fruit, ir_->validity == ir_range_t::VALID && !leaf, hold_at);
   return out;
 }
 

@@ -48,13 +48,18 @@ class IrGuidance {
 
   // One control step toward `fruit` with the tool at `tool`; `fruit_in_front`
   // (from the hand tracker): a nearer fruit fills the view, its centre this
-  // far off the axis.
-  IrStep step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit, std::optional<double> fruit_in_front);
+  // far off the axis. `hold_at`: stop this far short of the fruit's centre
+  // (braking at ir_braking_decel; the tool standing there is not blocked).
+  IrStep step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit, std::optional<double> fruit_in_front,
+              std::optional<double> hold_at = std::nullopt);
 
   // The forward speed for the range still to go (the IR range if it sees the
   // fruit, the estimate always): the speed from which braking at
   // ir_braking_decel stops at the grasp range, in [ir_min_speed, ir_approach_speed].
-  double forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit) const;
+  // With `hold_at` the speed from which it stops that far short of the
+  // estimate, down to zero there.
+  double forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit,
+                       std::optional<double> hold_at = std::nullopt) const;
 
   // The gripper is told to close with the tool at `tool` ...
   void closing_at(const Eigen::Vector3d& tool) { grasp_from_ = tool; }

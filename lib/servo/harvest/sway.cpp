@@ -28,6 +28,16 @@ void SwayEstimator::add(double t, const Eigen::Vector3d& position) {
   while (samples_.front().first < t - p_.window) samples_.pop_front();
 }
 
+double SwayEstimator::spread() const {
+  if (size() < p_.min_samples) return 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& s : samples_) mean += s.second;
+  mean /= static_cast<double>(size());
+  double ss = 0.0;
+  for (const auto& s : samples_) ss += (s.second - mean).squaredNorm();
+  return std::sqrt(ss / static_cast<double>(size()));
+}
+
 int SwayEstimator::grid_size() const {
   return static_cast<int>(std::floor((p_.max_frequency_hz - p_.min_frequency_hz) / p_.frequency_step_hz + 1e-9)) + 1;
 }

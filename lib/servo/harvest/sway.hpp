@@ -55,6 +55,11 @@ class SwayEstimator {
   // wrong frequency as well as the right one; over several the right one wins.
   void reset();
   int size() const { return static_cast<int>(samples_.size()); }
+  // How far the positions kept lie from their mean (rms) [m]; 0 with fewer
+  // than min_samples. A still fruit seen under IR guidance spreads by the
+  // pixel noise and the depth error's sideways share, 1-2 mm; a swaying one
+  // by its sway across the axis. Unlike the fit it needs no whole period.
+  double spread() const;
   std::optional<double> learned_hz() const;
 
   SwayFit fit() const;

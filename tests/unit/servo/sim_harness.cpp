@@ -121,6 +121,11 @@ void WorldDouble::on_attach() {
   ctx().add_timer(now() + 17 * rt::kMilli, 50 * rt::kMilli, [this] { publish_gripper(); });
 }
 
+Eigen::Vector3d WorldDouble::position(std::size_t i) const {
+  const FruitTruth& f = spec_.fruits[i];
+  return f.position + std::sin(2.0 * M_PI * f.sway_hz * since_start() + f.sway_phase) * f.sway;
+}
+
 int WorldDouble::fixed_id(std::size_t i) const {
   if (!spec_.fixed_ids_follow_order) return spec_.fruits[i].id;
   std::size_t k = 0;
@@ -149,7 +154,7 @@ void WorldDouble::publish_fixed() {
     t.source_camera = "fixed";
     std::uniform_real_distribution<double> jitter(-spec_.fixed_depth_jitter, spec_.fixed_depth_jitter);
     const double scale = spec_.fixed_depth_scale + (spec_.fixed_depth_jitter > 0 ? jitter(rng_) : 0.0);
-    const Eigen::Vector3d p = spec_.fixed_camera + scale * (f.position + spec_.fixed_error - spec_.fixed_camera);
+    const Eigen::Vector3d p = spec_.fixed_camera + scale * (position(i) + spec_.fixed_error - spec_.fixed_camera);
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
     t.covariance_base[0] = t.covariance_base[4] = t.covariance_base[8] = 0.05 * 0.05;
     t.diameter_m = 0.075;
@@ -186,7 +191,7 @@ void WorldDouble::publish_hand() {
   for (std::size_t i = 0; i < spec_.fruits.size() && !hidden; ++i) {
     if (where_[i] != Where::kTree) continue;
     const auto& f = spec_.fruits[i];
-    const Eigen::Vector3d pc = cam.inverse() * f.position;
+    const Eigen::Vector3d pc = cam.inverse() * position(i);
     Eigen::Vector2d px;
     if (pc.z() < 0.05 || !project_point(k, pc, px)) continue;
     const double diameter_px = k.fx * f.diameter / pc.z();
@@ -242,14 +247,14 @@ void WorldDouble::publish_ir() {
   double range = 1e9;
   for (std::size_t i = 0; i < spec_.fruits.size() && !spec_.ir_dead; ++i) {
     if (where_[i] != Where::kTree) continue;
-    const Eigen::Vector3d d = spec_.fruits[i].position - sensor;
+    const Eigen::Vector3d d = position(i) - sensor;
     const double along = d.dot(axis);
     const double lateral = (d - along * axis).norm();
     const double r = spec_.fruits[i].diameter / 2;
     if (along > 0 && lateral < 0.7 * r) range = std::min(range, along - std::sqrt(r * r - lateral * lateral));
   }
   if (spec_.leaf_before_fruit_m && !spec_.fruits.empty() && where_[0] == Where::kTree) {
-    const Eigen::Vector3d f = spec_.fruits[0].position;
+    const Eigen::Vector3d f = position(0);
     const Eigen::Vector3d leaf = f - *spec_.leaf_before_fruit_m * (f - spec_.start_tool.translation()).normalized();
     const Eigen::Vector3d d = leaf - sensor;
     const double along = d.dot(axis);
@@ -273,7 +278,10 @@ void WorldDouble::publish_gripper() {
     gripper_ = gripper_state_t::STATE_CLOSED;
     const bool misses = spec_.gripper_misses || ++closures_ <= spec_.gripper_misses_first;
     for (std::size_t i = 0; i < spec_.fruits.size() && !misses; ++i) {
-      if (where_[i] == Where::kTree && (spec_.fruits[i].position - arm_.tool().translation()).norm() < 0.03) {
+      if (where_[i] != Where::kTree) continue;
+      const Eigen::Vector3d offset = position(i) - arm_.tool().translation();
+      if (i == 0) closed_offset_ = arm_.tool().rotation().transpose() * offset;
+      if (offset.norm() < 0.03) {
         where_[i] = Where::kGripper;
         gripper_ = gripper_state_t::STATE_HOLDING;
         holding_since_ = now();

@@ -26,6 +26,10 @@ struct FruitTruth {
   int id = 0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  // base frame [m]
   double diameter = 0.075;
+  // Wind: the fruit sways about `position` by sway sin(2 pi sway_hz t + sway_phase), t from the start.
+  Eigen::Vector3d sway = Eigen::Vector3d::Zero();  // [m] amplitude and direction
+  double sway_hz = 0.0;
+  double sway_phase = 0.0;  // [rad]
 };
 
 struct WorldSpec {
@@ -117,13 +121,16 @@ class WorldDouble final : public rt::Node {
   bool fruit_picked(int id) const;
   // Tool position when the gripper was last told to close, if ever.
   const std::optional<Eigen::Vector3d>& close_position() const { return close_position_; }
+  // The first fruit's centre minus the tool point, in the tool frame, when the gripper last finished closing.
+  const std::optional<Eigen::Vector3d>& closed_offset() const { return closed_offset_; }
 
  protected:
   void on_attach() override;
 
  private:
   enum class Where { kTree, kGripper, kDropped, kFallen };
-  int fixed_id(std::size_t i) const;  // the fixed camera's id of fruit i
+  int fixed_id(std::size_t i) const;              // the fixed camera's id of fruit i
+  Eigen::Vector3d position(std::size_t i) const;  // fruit i now (swaying)
   void publish_fixed();
   void publish_hand();
   void publish_ir();
@@ -141,6 +148,7 @@ class WorldDouble final : public rt::Node {
   rt::Micros holding_since_ = 0;
   rt::Micros opening_since_ = 0;
   std::optional<Eigen::Vector3d> close_position_;
+  std::optional<Eigen::Vector3d> closed_offset_;
 };
 
 // Experiment I of the thesis (tables 6-3, 6-5): the truth uses the

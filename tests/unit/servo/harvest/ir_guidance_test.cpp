@@ -148,6 +148,37 @@ TEST(IrGuidance, AnAttemptEndsOutOfTravelPastTheFruitOrBlocked) {
   EXPECT_NE(moving.step(at(2.1), tool_at(0.006), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
 }
 
+// Standing off a swaying fruit 0.2 m short of it: the braking speed to there,
+// zero there and nearer (no floor), the IR's shorter range still governing;
+// a tool standing there longer than the stall time is not blocked, and
+// what its IR read standing there is no fold-back.
+TEST(IrGuidance, HoldingOffAFruitStopsShortOfItAndIsNoStall) {
+  IrGuidance g = guiding();
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.3), false, 0.2), 0.381, 1e-12);  // sqrt(2 0.8 0.1) = 0.4, capped
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.21), false, 0.2), std::sqrt(2 * 0.8 * 0.01), 1e-12);
+  EXPECT_EQ(g.forward_speed(kTool, fruit(0.2), false, 0.2), 0.0);
+  EXPECT_EQ(g.forward_speed(kTool, fruit(0.15), false, 0.2), 0.0);
+  g.on_reading(reading(0.035), kT, true);  // 20 mm to the grasp range
+  EXPECT_NEAR(g.forward_speed(kTool, fruit(0.3), true, 0.2), std::sqrt(2 * 0.8 * 0.02), 1e-6);
+  const auto at = [&](double s) { return kT + rt::from_seconds(s); };
+  IrGuidance held = guiding(), unheld = guiding();
+  for (double s = 0.5; s <= 3.0; s += 0.5) {
+    held.on_reading(reading(0.3), at(s), true);
+    const IrStep h = held.step(at(s), kTool, fruit(0.2), std::nullopt, 0.2);
+    EXPECT_EQ(h.action, IrStep::Action::kAdvance) << s;
+    EXPECT_EQ(h.forward_speed, 0.0) << s;
+  }
+  unheld.on_reading(reading(0.3), at(2.1), true);
+  EXPECT_EQ(unheld.step(at(2.1), kTool, fruit(0.2), std::nullopt).action, IrStep::Action::kGiveUp);
+  // A leaf just above the grasp range in the beam of the standing tool, then gone: no fold-back, no close.
+  IrGuidance leafy = guiding();
+  leafy.on_reading(reading(0.04), at(0.1), true);
+  leafy.on_reading(reading(0.3), at(0.2), true);
+  EXPECT_EQ(leafy.step(at(0.2), kTool, fruit(0.2), std::nullopt, 0.2).action, IrStep::Action::kAdvance);
+  leafy.on_reading(reading(0.3), at(0.3), true);
+  EXPECT_EQ(leafy.step(at(0.3), kTool, fruit(0.2), std::nullopt).action, IrStep::Action::kAdvance);
+}
+
 TEST(IrGuidance, ARetryCountsTheAttemptAndKeepsWhereGuidanceBegan) {
   IrGuidance g{ServoConfig{}};
   g.begin({0.0, 0.0, 0.1}, kT);

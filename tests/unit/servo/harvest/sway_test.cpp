@@ -109,6 +109,25 @@ TEST(SwayEstimator, TooLittleSeenIsStill) {
   EXPECT_FALSE(brief.fit().swaying);  // 40 samples over 0.585 s
 }
 
+// Hand-worked: positions 3 mm either side of the stem along x, half each:
+// 3 mm rms about their mean; with fewer than min_samples (12) nothing is told.
+TEST(SwayEstimator, SpreadIsTheRmsAboutTheMeanOnceEnoughIsSeen) {
+  SwayEstimator e{ServoConfig::Sway{}};
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  for (int i = 0; i < 11; ++i) e.add(i / 30.0, kStem + (i % 2 == 1 ? 0.003 : -0.003) * x);
+  EXPECT_EQ(e.spread(), 0.0);
+  e.add(11 / 30.0, kStem + 0.003 * x);
+  EXPECT_NEAR(e.spread(), 0.003, 1e-12);
+  // A still fruit seen with +-0.5 mm of noise spreads far less than a sway of 15 mm seen for 2 s.
+  SwayEstimator still{ServoConfig::Sway{}};
+  for (int i = 0; i < 30; ++i)
+    still.add(i / 30.0, kStem + 0.0005 * Eigen::Vector3d(noise(i), noise(i + 7), noise(i + 9)));
+  SwayEstimator swaying{ServoConfig::Sway{}};
+  see_swaying(swaying, 0.0, 2.0);
+  EXPECT_LT(still.spread(), 0.001);
+  EXPECT_GT(swaying.spread(), 0.004);
+}
+
 TEST(SwayEstimator, KeepsTheWindowAndIgnoresRepeatedImages) {
   ServoConfig::Sway p;
   p.window = 1.0;
@@ -166,9 +185,11 @@ SwayFit sway_along_x() {
   return f;
 }
 
+// The timed close on (max_wait is 0 by default: the hold centres on the sway's middle instead).
 ServoConfig::Sway timing() {
   ServoConfig::Sway p;
   p.close_delay = 0.5;
+  p.max_wait = 1.5;
   return p;
 }
 
