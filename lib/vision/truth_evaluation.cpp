@@ -124,8 +124,7 @@ std::vector<std::vector<double>> TruthEvaluation::add_frame(const std::vector<Se
     }
     if (!on[i].empty()) {
       diam_err_best_.push_back(100 * (largest / t.diameter_px - 1));
-      centre_err_largest_[static_cast<int>(std::floor(t.depth_m * 10))].push_back(100 * largest_offset /
-                                                                                   t.diameter_px);
+      centre_err_largest_[static_cast<int>(std::floor(t.depth_m * 10))].push_back(100 * largest_offset / t.diameter_px);
       depth_err_largest_[static_cast<int>(std::floor(t.depth_m * 10))].push_back(
           (f_mean_ * d_o_ / largest - t.depth_m) * 1e3);
     }

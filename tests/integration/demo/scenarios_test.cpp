@@ -183,10 +183,10 @@ TEST(DemoScenarios, ExperimentOneIsPickedWithTheLearnedDetectorsOnTheFieldLook) 
   ht::TempDir dir;
   std::string out;
   const PrintOnFailure print{out};
-  const rt::Json j = run_scenario({"--scenario", "config/scenarios/experiment1.yaml", "--scenario-set",
-                                   "look.style=field", "--process-set", "detector-fixed:detector.mode=learned",
-                                   "--process-set", "detector-hand:detector.mode=learned"},
-                                  dir, &out);
+  const rt::Json j = run_scenario(
+      {"--scenario", "config/scenarios/experiment1.yaml", "--scenario-set", "look.style=field", "--process-set",
+       "detector-fixed:detector.mode=learned", "--process-set", "detector-hand:detector.mode=learned"},
+      dir, &out);
   // What ran: the simulator read the overridden scenario, the detectors their mode.
   const std::string scenario = slurp(dir / "out" / "scenario.yaml"), set = slurp(dir / "out" / "run0-set.yaml");
   EXPECT_NE(scenario.find("style: field"), std::string::npos) << scenario;
