@@ -15,6 +15,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <optional>
 
+#include "config/config.hpp"
 #include "demo/progress.hpp"
 #include "demo/run_ports.hpp"
 #include "demo/set_rewrite.hpp"
@@ -317,6 +318,9 @@ bool parse_demo_args(int argc, char** argv, DemoOptions& o, int& exit_code) {
   app.add_option("--out", out, "output folder (default logs/demo/<UTC time>-<scenario>)");
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: a private port on this host, TTL 0)");
   app.add_option("--bin-dir", bin, "where the harvest-* executables are (default: beside harvest-demo)");
+  app.add_option("--scenario-set", o.scenario_sets,
+                 "KEY=VALUE, an override of the scenario (e.g. look.style=field); the scenario run is written to "
+                 "<out>/scenario.yaml");
   std::vector<std::string> process_sets;
   app.add_option("--process-set", process_sets, "NAME:KEY=VALUE, a configuration override for one process of the set")
       ->check([](const std::string& v) {
@@ -374,6 +378,20 @@ int run_demo(const DemoOptions& opt, std::ostream& out, std::ostream& err) {
   }
   if (o.out_dir.empty()) o.out_dir = o.root / "logs" / "demo" / (rt::utc_file_stamp() + "-" + scenario.name);
   fs::create_directories(o.out_dir);
+  if (!o.scenario_sets.empty()) {  // the overridden scenario, a file the simulator reads and harvest-evaluate can
+    try {
+      auto doc = config::Document::load_file(o.scenario);
+      for (const auto& a : o.scenario_sets) doc.apply_override(a);
+      const fs::path copy = o.out_dir / "scenario.yaml";
+      std::ofstream(copy) << "# Written by harvest-demo: " << o.scenario.string() << " with --scenario-set\n"
+                          << doc.emit();
+      o.scenario = copy;
+      scenario = sim::load_scenario(o.scenario.string());
+    } catch (const std::exception& e) {
+      err << "harvest-demo: --scenario-set: " << e.what() << '\n';
+      return 2;
+    }
+  }
   if (o.lcm_url.empty()) o.lcm_url = pick_run_ports().lcm_url;
   lcm::LCM lcm(o.lcm_url);
   if (!lcm.good()) {

@@ -32,6 +32,9 @@ struct DemoOptions {
   double image_rate_hz = 0;  // recording: camera frames at most this often (0: every frame)
   // --process-set NAME:KEY=VALUE: `--set KEY=VALUE` appended to process NAME.
   std::vector<std::pair<std::string, std::string>> process_sets;
+  // --scenario-set KEY=VALUE: the scenario with these overrides (e.g. look.style=field), written to
+  // <out>/scenario.yaml, which the simulator runs and the runs are scored against.
+  std::vector<std::string> scenario_sets;
   double start_timeout_s = 30.0;  // processes up and START obeyed within this
   double run_margin_s = 60.0;     // beyond the scenario's time limit before a run is abandoned
 };

@@ -80,26 +80,33 @@ std::vector<TruthFruit> project_truth(const sim_truth_t& truth, const geometry::
   return fruits;
 }
 
+int fruit_of(const SensorDetection& d, const std::vector<TruthFruit>& fruits) {
+  int best = -1;
+  double best_s = 1.0;
+  for (std::size_t i = 0; i < fruits.size(); ++i) {
+    const double s = (d.centre - fruits[i].centre).norm() / (0.5 * fruits[i].diameter_px);
+    if (s < best_s) best_s = s, best = static_cast<int>(i);
+  }
+  return best;
+}
+
 TruthEvaluation::TruthEvaluation(double min_visible, double f_mean, double d_o)
     : min_visible_(min_visible), f_mean_(f_mean), d_o_(d_o) {}
 
 std::vector<std::vector<double>> TruthEvaluation::add_frame(const std::vector<SensorDetection>& detections,
                                                             const std::vector<TruthFruit>& fruits) {
-  std::vector<std::vector<double>> on(fruits.size());  // diameters per fruit
+  std::vector<std::vector<double>> on(fruits.size());      // diameters per fruit
+  std::vector<std::vector<double>> offset(fruits.size());  // their centres' distance from the true one [px]
   for (const auto& d : detections) {
     ++detections_total_;
-    int best = -1;
-    double best_s = 1.0;
-    for (std::size_t i = 0; i < fruits.size(); ++i) {
-      const double s = (d.centre - fruits[i].centre).norm() / (0.5 * fruits[i].diameter_px);
-      if (s < best_s) best_s = s, best = static_cast<int>(i);
-    }
+    const int best = fruit_of(d, fruits);
     if (best < 0) {
       ++unmatched_;
       continue;
     }
     on[static_cast<std::size_t>(best)].push_back(d.diameter_px);
     const auto& t = fruits[static_cast<std::size_t>(best)];
+    offset[static_cast<std::size_t>(best)].push_back((d.centre - t.centre).norm());
     if (t.visible >= min_visible_) {
       const int bin = static_cast<int>(std::floor(t.depth_m * 10));
       depth_err_bins_[bin].push_back((f_mean_ * d_o_ / d.diameter_px - t.depth_m) * 1e3);
@@ -109,13 +116,15 @@ std::vector<std::vector<double>> TruthEvaluation::add_frame(const std::vector<Se
     const auto& t = fruits[i];
     if (t.visible < min_visible_) continue;
     ++histogram_[static_cast<int>(on[i].size())];
-    double largest = 0;
-    for (double d : on[i]) {
-      largest = std::max(largest, d);
+    double largest = 0, largest_offset = 0;
+    for (std::size_t k = 0; k < on[i].size(); ++k) {
+      const double d = on[i][k];
+      if (d > largest) largest = d, largest_offset = offset[i][k];
       diam_err_all_.push_back(100 * (d / t.diameter_px - 1));
     }
     if (!on[i].empty()) {
       diam_err_best_.push_back(100 * (largest / t.diameter_px - 1));
+      centre_err_largest_[static_cast<int>(std::floor(t.depth_m * 10))].push_back(100 * largest_offset / t.diameter_px);
       depth_err_largest_[static_cast<int>(std::floor(t.depth_m * 10))].push_back(
           (f_mean_ * d_o_ / largest - t.depth_m) * 1e3);
     }
@@ -151,6 +160,10 @@ void TruthEvaluation::report(std::ostream& out, int scored_frames, double detect
   print(out, "the same, largest detection per fruit only:\n");
   for (const auto& [bin, v] : depth_err_largest_)
     print(out, "  %4d-%4d mm: n %4zu mean %+6.0f rms %5.0f\n", bin * 100, bin * 100 + 100, v.size(), mean(v), rms(v));
+  print(out, "centre of the largest detection per fruit from the true centre [%% of the true diameter]:\n");
+  for (const auto& [bin, v] : centre_err_largest_)
+    print(out, "  %4d-%4d mm: n %4zu mean %5.1f rms %5.1f max %5.1f\n", bin * 100, bin * 100 + 100, v.size(), mean(v),
+          rms(v), *std::max_element(v.begin(), v.end()));
   print(out, "detections %d, not on any fruit %d; detector %.2f ms per frame\n", detections_total_, unmatched_,
         detect_ms / std::max(1, scored_frames));
 }
@@ -208,7 +221,10 @@ int run_truth_evaluation(const std::vector<rt::LogRecord>& log, const DetectorNo
         const auto& t = fruits[i];
         if (t.visible < 0.3) continue;
         print(out, "  fruit %2d vis %.2f depth %.3f m true %5.1f px:", t.id, t.visible, t.depth_m, t.diameter_px);
-        for (double d : on[i]) print(out, " %5.1f (%+.0f%%)", d, 100 * (d / t.diameter_px - 1));
+        for (const auto& d : sensor)  // each detection on the fruit: diameter, its error, centre offset [px]
+          if (fruit_of(d, fruits) == static_cast<int>(i))
+            print(out, " %5.1f (%+.0f%%) at %.0f px", d.diameter_px, 100 * (d.diameter_px / t.diameter_px - 1),
+                  (d.centre - t.centre).norm());
         out << "\n";
       }
     }

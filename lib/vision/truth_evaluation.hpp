@@ -60,6 +60,10 @@ struct SensorDetection {
   double diameter_px = 0;
 };
 
+// The fruit a detection belongs to: the one whose disc holds its centre,
+// nearest relative to its radius; -1 if none.
+int fruit_of(const SensorDetection& d, const std::vector<TruthFruit>& fruits);
+
 // The tallies over the scored frames.
 class TruthEvaluation {
  public:
@@ -82,8 +86,9 @@ class TruthEvaluation {
   double min_visible_, f_mean_, d_o_;
   std::map<int, int> histogram_;  // detections per scored fruit -> fruit
   std::vector<double> diam_err_best_, diam_err_all_;
-  std::map<int, std::vector<double>> depth_err_bins_;     // 100 mm bins of true depth -> error [mm]
-  std::map<int, std::vector<double>> depth_err_largest_;  // the same, largest detection per fruit only
+  std::map<int, std::vector<double>> depth_err_bins_;      // 100 mm bins of true depth -> error [mm]
+  std::map<int, std::vector<double>> depth_err_largest_;   // the same, largest detection per fruit only
+  std::map<int, std::vector<double>> centre_err_largest_;  // its centre's distance from the true one, % of diameter
   int unmatched_ = 0, detections_total_ = 0;
 };
 

@@ -181,6 +181,11 @@ TEST(Demo, BadScenarioIsRefusedNamingTheFile) {
   std::ofstream(dir.path() / "typo.yaml") << "name: t\nfruitt: []\n";
   EXPECT_EQ(run_demo({"--scenario", (dir.path() / "typo.yaml").string()}, dir.path(), &out), 2);
   EXPECT_NE(out.find("fruitt"), std::string::npos) << out;
+  // --scenario-set: the overridden scenario is checked like a file (a value out of its choices, no '=').
+  EXPECT_EQ(run_demo({"--scenario-set", "look.style=photo"}, dir.path(), &out), 2);
+  EXPECT_NE(out.find("look.style"), std::string::npos) << out;
+  EXPECT_EQ(run_demo({"--scenario-set", "look.style"}, dir.path(), &out), 2);
+  EXPECT_NE(out.find("--scenario-set"), std::string::npos) << out;
 }
 
 TEST(Demo, SetRewriteKeepsTheSetAndTellsTheSimulatorItsRun) {

@@ -104,6 +104,8 @@ TEST(TruthEvaluation, DetectionsGoToTheFruitWhoseDiscHoldsThem) {
   // Depth 800 * 0.08 / d - 1.05: +3 mm (60.8 px) and +950 mm (32 px), both in the 1000-1100 mm bin.
   EXPECT_NE(s.find("  1000-1100 mm: n    2 mean   +476"), std::string::npos) << s;
   EXPECT_NE(s.find("  1000-1100 mm: n    1 mean     +3"), std::string::npos) << s;
+  // The largest detection on a is 5 px from its centre: 7.8 % of its 64 px.
+  EXPECT_NE(s.find("  1000-1100 mm: n    1 mean   7.8 rms   7.8 max   7.8"), std::string::npos) << s;
   EXPECT_NE(s.find("detections 4, not on any fruit 1; detector 2.00 ms per frame"), std::string::npos) << s;
 }
 
