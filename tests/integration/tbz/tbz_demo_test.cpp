@@ -120,6 +120,13 @@ std::string joined(const std::vector<std::string>& v) {
   return s;
 }
 
+void print(const Trace& t) {
+  std::printf(
+      "APPROACH: %d of %d FEATURE_MATCHES verified (%d more before a desired image), %d of %d twists rotating\n%s",
+      t.matches_ok_in_approach, t.matches_in_approach, t.waiting_for_desired, t.rotating_commands_in_approach,
+      t.commands_in_approach, joined(t.summaries).c_str());
+}
+
 // In the suite (16-20 s). Its one failure in 8 runs on 2026-12-04 (5 alone,
 // 3 beside two busy loops) was the controller reaching APPROACH before the
 // first zoomed view: its FEATURE_MATCHES said "no desired image" and counted
@@ -132,10 +139,7 @@ TEST(TbzDemo, TheStickeredFruitIsPickedThroughTeachByZooming) {
   EXPECT_EQ(r.summary["picked"], 1) << r.output;
   EXPECT_EQ(r.summary["reachable"], 1) << r.output;
   const Trace t = trace(r.log);
-  std::printf(
-      "APPROACH: %d of %d FEATURE_MATCHES verified (%d more before a desired image), %d of %d twists rotating\n%s",
-      t.matches_ok_in_approach, t.matches_in_approach, t.waiting_for_desired, t.rotating_commands_in_approach,
-      t.commands_in_approach, joined(t.summaries).c_str());
+  print(t);
   EXPECT_GE(t.matches_ok_in_approach, 15);
   EXPECT_GE(t.matches_ok_in_approach, 0.8 * t.matches_in_approach);
   EXPECT_GE(t.rotating_commands_in_approach, 10);
@@ -157,10 +161,7 @@ TEST(TbzDemo, TheNaturalFruitIsPickedAfterFallingBack) {
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(r.summary["picked"], 1) << r.output;
   const Trace t = trace(r.log);
-  std::printf(
-      "APPROACH: %d of %d FEATURE_MATCHES verified (%d more before a desired image), %d of %d twists rotating\n%s",
-      t.matches_ok_in_approach, t.matches_in_approach, t.waiting_for_desired, t.rotating_commands_in_approach,
-      t.commands_in_approach, joined(t.summaries).c_str());
+  print(t);
   EXPECT_TRUE(t.any("teach by zooming impossible (feature matches: ")) << joined(t.summaries);
   EXPECT_TRUE(t.any("falling back to the 3D-reconstruction approach")) << joined(t.summaries);
   EXPECT_FALSE(t.any("teach by zooming arrived")) << joined(t.summaries);
