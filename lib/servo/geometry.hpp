@@ -36,6 +36,11 @@ Eigen::Matrix3d aim_rotation(const Eigen::Isometry3d& tool, const Eigen::Vector3
 // Angle of the rotation between two orientations [rad].
 double rotation_distance(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 
+// How far `point` lies ahead of the tool point along the tool's (gripper's) axis [m].
+inline double ahead_along_axis(const Eigen::Isometry3d& tool, const Eigen::Vector3d& point) {
+  return (point - tool.translation()).dot(tool.rotation().col(2));
+}
+
 // Normalised image coordinates (x/z, y/z) of a distorted pixel: invert the
 // intrinsic matrix, then remove the distortion by fixed-point iteration.
 Eigen::Vector2d undistort_pixel(const geometry::CameraModel& cam, double u, double v);

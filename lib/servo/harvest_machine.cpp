@@ -505,7 +505,7 @@ void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
     fail_fruit(fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace", moved, now, out);
     return;
   }
-  const double remaining = (current_->estimate - t.translation()).dot(t.rotation().col(2));
+  const double remaining = ahead_along_axis(t, current_->estimate);
   std::string arrived_with;  // the strategy's own word on its arrival
   if (approach_->has_own_goal()) {
     // Teach by zooming: servoed to the zoomed view's pose, then IR guidance from wherever that is.
@@ -598,7 +598,7 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
     // measured from a doubtful depth, and the hand camera's views of it are pieces.
     const double spread = sway_.spread();
     if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing) return std::nullopt;
-    const double ahead = (current_->estimate - tool.translation()).dot(tool.rotation().col(2));
+    const double ahead = ahead_along_axis(tool, current_->estimate);
     if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
     if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on
       held_ = true;

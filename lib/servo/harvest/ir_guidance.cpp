@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "servo/geometry.hpp"
+
 namespace harvest::servo {
 
 void IrGuidance::reset_attempt(const Eigen::Vector3d& tool, rt::Micros now) {
@@ -48,11 +50,12 @@ double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fru
   // ends at zero, so the estimate is the longer of the two; it bounds the
   // IR's: the sensor's fold-back makes a fruit nearer than its peak read far,
   // and the arm must not speed up into it.
-  double to_go = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2));
+  const double ahead = ahead_along_axis(tool, fruit.estimate);
+  double to_go = ahead;
   if (ir_sees_fruit) to_go = std::min(to_go, static_cast<double>(ir_->range_m) - cfg_.ir_grasp_range);
   if (hold_at) {
     // Standing off a swaying fruit: no floor, the arm comes to rest there.
-    const double to_hold = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2)) - *hold_at;
+    const double to_hold = ahead - *hold_at;
     return std::clamp(std::sqrt(2.0 * cfg_.ir_braking_decel * std::max(0.0, std::min(to_go, to_hold))), 0.0,
                       cfg_.ir_approach_speed);
   }
@@ -75,7 +78,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
        ir_->range_m <= cfg_.ir_grasp_range) ||
       folded_;
   // Fruit centre ahead of the tool point by the camera-in-hand's estimate.
-  const double ahead = (fruit.estimate - tool.translation()).dot(tool.rotation().col(2));
+  const double ahead = ahead_along_axis(tool, fruit.estimate);
   // The IR sees the first thing on its axis: a leaf in front of the fruit
   // reads like the fruit. A reading at the grasp range while an estimate
   // checked against the rays' crossing puts the fruit much farther is that
