@@ -10,10 +10,10 @@
 #include <string>
 
 #include "calib/views.hpp"
+#include "geometry/pose_history.hpp"
 #include "harvest/image_t.hpp"
 #include "harvest/robot_state_t.hpp"
 #include "runtime/node.hpp"
-#include "vision/pose_history.hpp"
 
 namespace harvest::calib {
 
@@ -64,7 +64,7 @@ class CalibrationNode : public rt::Node {
   CalibrationNodeConfig config_;
   cv::Ptr<cv::aruco::CharucoBoard> board_;
   ViewCollector collector_;
-  vision::PoseHistory poses_{4096};
+  geometry::PoseHistory poses_{4096};
   struct Motion {
     int64_t utime;
     bool at_rest;

@@ -10,11 +10,12 @@ namespace harvest::servo {
 
 Eigen::Vector3d seen_in_base(const geometry::CameraModel& k, const Eigen::Isometry3d& camera,
                              const PixelMeasurement& pixel, const Eigen::Vector3d& fruit_base) {
+  const Eigen::Isometry3d& cam = pixel.camera ? *pixel.camera : camera;
   // Depth of the fruit along the optical axis from the best 3D estimate (eq. 6-15); eq. 6-25, 6-26 in
   // normalised coordinates, scaled by it: the fruit in the camera frame.
-  const double depth = std::max(0.0, (camera.rotation().transpose() * (fruit_base - camera.translation())).z());
+  const double depth = std::max(0.0, (cam.rotation().transpose() * (fruit_base - cam.translation())).z());
   const Eigen::Vector2d m = undistort_pixel(k, pixel.u, pixel.v);
-  return camera * Eigen::Vector3d(m.x() * depth, m.y() * depth, depth);
+  return cam * Eigen::Vector3d(m.x() * depth, m.y() * depth, depth);
 }
 
 void ReconstructionApproach::reset() {

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "runtime/clock.hpp"
 #include "servo/motion_limits.hpp"
@@ -19,8 +20,14 @@ namespace harvest::servo {
 
 // One centroid of the target fruit in the camera-in-hand image.
 struct PixelMeasurement {
+  PixelMeasurement() = default;
+  PixelMeasurement(double u_px, double v_px, rt::Micros taken, std::optional<Eigen::Isometry3d> from = std::nullopt)
+      : u(u_px), v(v_px), utime(taken), camera(std::move(from)) {}
   double u = 0.0, v = 0.0;  // [px], distorted, as detected
   rt::Micros utime = 0;     // when the image was taken
+  // The camera-in-hand optical frame in the base frame when the image was
+  // taken, if known; else the pixel is seen from the newest camera pose.
+  std::optional<Eigen::Isometry3d> camera;
 };
 
 struct ApproachInput {
@@ -36,7 +43,7 @@ struct ApproachInput {
 };
 
 struct ApproachOutput {
-  Twist twist;                   // desired tool twist in the base frame, before limits
+  Twist twist;  // desired tool twist in the base frame, before limits
   // [m] centring x, y and depth error: of the fruit from the gripper axis in
   // the tool frame (reconstruction), or in the camera frame (teach by zooming).
   Eigen::Vector3d error;
@@ -68,9 +75,10 @@ class ApproachStrategy {
 // the depth error is the fruit's depth ahead of the tool point along it.
 // v_tool = kp e + kd de/dt, rotated into the base frame. (The thesis writes
 // -kv de/dt with its error sign; here kd > 0 always damps.)
-// Where the camera-in-hand at `camera` sees the fruit, in the base frame:
-// on the ray through the pixel, at the depth along the optical axis of the
-// best 3D estimate `fruit_base` (eq. 6-15, 6-25, 6-26).
+// Where the camera-in-hand sees the fruit, in the base frame: on the ray
+// through the pixel, at the depth along the optical axis of the best 3D
+// estimate `fruit_base` (eq. 6-15, 6-25, 6-26). The camera is where it took
+// the image (pixel.camera) if known, else at `camera`.
 Eigen::Vector3d seen_in_base(const geometry::CameraModel& k, const Eigen::Isometry3d& camera,
                              const PixelMeasurement& pixel, const Eigen::Vector3d& fruit_base);
 

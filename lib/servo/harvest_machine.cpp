@@ -208,6 +208,7 @@ bool HarvestMachine::take_next(const Selection& s, MachineOutput& out) {
   sway_.reset();
   hold_since_.reset();
   held_ = false;
+  still_after_all_ = false;
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
   return true;
@@ -260,7 +261,7 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     fixed_ = msg;
     fixed_rx_ = now;
   } else if (current_) {
-    hand_.on_hand_targets(msg, *current_, camera(), now);
+    hand_.on_hand_targets(msg, *current_, image_camera(msg.header.utime), now);
   }
   return out;
 }
@@ -269,6 +270,7 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
   MachineOutput out;
   robot_ = msg;
   robot_rx_ = now;
+  if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
   if (!running()) return out;
   if (const auto f = robot_fault(msg)) fault(*f, now, out);
   return out;
@@ -490,8 +492,19 @@ void HarvestMachine::release(rt::Micros now, MachineOutput& out) {
   out.gripper = gripper(gripper_command_t::ACTION_OPEN);
 }
 
+std::optional<Eigen::Isometry3d> HarvestMachine::camera_at(rt::Micros utime) const {
+  if (cfg_.image_pose_gap <= 0.0) return std::nullopt;
+  return camera_poses_.at(utime, rt::from_seconds(cfg_.image_pose_gap));
+}
+
+std::optional<PixelMeasurement> HarvestMachine::hand_pixel(rt::Micros now) const {
+  auto pixel = hand_.fresh(now);
+  if (pixel) pixel->camera = camera_at(pixel->utime);
+  return pixel;
+}
+
 void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
-  const auto pixel = hand_.fresh(now);
+  const auto pixel = hand_pixel(now);
   if (!pixel) {
     enter(State::kReacquire, now, out);
     out.robot = twist(Twist{});
@@ -580,7 +593,7 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
       break;
     case IrStep::Action::kAdvance:
       out.robot =
-          twist(approach_->update({now, t, camera(), current_->estimate, hand_.fresh(now), s.forward_speed}).twist);
+          twist(approach_->update({now, t, camera(), current_->estimate, hand_pixel(now), s.forward_speed}).twist);
       break;
   }
 }
@@ -609,13 +622,33 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
                         spread * 1e3, ahead * 1e3, p.hold_time);
     out.status_changed = true;
   }
-  if (now - *hold_since_ < rt::from_seconds(p.hold_time)) return p.hold_standoff;
+  const rt::Micros held_for = now - *hold_since_;
+  if (p.hold_check > 0.0 && held_for >= rt::from_seconds(p.hold_check) && held_for < rt::from_seconds(p.hold_time)) {
+    // Early word from the views taken since the hold began, the arm at rest: a still fruit that looked to sway
+    // (seen while the arm moved and turned, its spread is the depth error's sideways share) spreads by the pixel
+    // noise alone, a swaying one by its sway. On ten still short trees 10 of 37 IR approaches held the whole 2.5 s;
+    // their held spreads were 0.1-1.0 mm, a swaying fruit's 2.2-6.7 mm (docs/servo-controller.md).
+    const auto spread = sway_.spread_since(rt::to_seconds(*hold_since_));
+    if (sway_fed_ <= *hold_since_) {
+      note_ = fmt::format("not seen whole in {:.1f} s held: going in", rt::to_seconds(held_for));
+    } else if (spread && *spread < p.still_spread) {
+      still_after_all_ = true;
+      note_ = fmt::format("still after all ({:.1f} mm rms over {:.1f} s held): going in", *spread * 1e3,
+                          rt::to_seconds(held_for));
+    } else {
+      return p.hold_standoff;
+    }
+    out.status_changed = true;
+    held_ = true;
+    return std::nullopt;
+  }
+  if (held_for < rt::from_seconds(p.hold_time)) return p.hold_standoff;
   held_ = true;
   return std::nullopt;
 }
 
 void HarvestMachine::feed_sway(rt::Micros now) {
-  const auto pixel = hand_.fresh(now);
+  const auto pixel = hand_pixel(now);
   if (!pixel || pixel->utime <= sway_fed_ || !robot_ || !hand_.whole()) return;
   sway_fed_ = pixel->utime;
   // Whole fruit only: cut by the image border or filling the image, the centroid is not the fruit's centre.

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/pose_history.hpp"
 #include "harvest/emergency_stop_t.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/fruit_outcome_t.hpp"
@@ -69,14 +70,15 @@ class HarvestMachine {
   MachineOutput on_targets(const targets_t& msg, rt::Micros now);
   MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
     if (current_ && spec(state_).follows_fruit && msg.status == fruit_detections_t::STATUS_OK && robot_)
-      hand_.on_detections(msg, *current_, camera(), now);
+      hand_.on_detections(msg, *current_, image_camera(msg.header.utime), now);
     return {};
   }
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
     // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
     // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
-    ir_.on_reading(msg, now, state_ == State::kIrApproach && sway_.spread() <= cfg_.sway.hold_spread);
+    ir_.on_reading(msg, now,
+                   state_ == State::kIrApproach && (still_after_all_ || sway_.spread() <= cfg_.sway.hold_spread));
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
@@ -108,6 +110,12 @@ class HarvestMachine {
   }
   Eigen::Isometry3d tool() const { return robot_ ? to_isometry(robot_->tool_pose) : Eigen::Isometry3d::Identity(); }
   Eigen::Isometry3d camera() const { return robot_ ? to_isometry(robot_->camera_pose) : Eigen::Isometry3d::Identity(); }
+  // The camera-in-hand when it took the image of `utime` (image_pose_gap), if the robot states around it are known.
+  std::optional<Eigen::Isometry3d> camera_at(rt::Micros utime) const;
+  // ... else the newest pose.
+  Eigen::Isometry3d image_camera(rt::Micros utime) const { return camera_at(utime).value_or(camera()); }
+  // The followed centroid of the current fruit, if fresh, with the camera pose it was seen from.
+  std::optional<PixelMeasurement> hand_pixel(rt::Micros now) const;
   // A command names the newest TARGETS taken in (its utime is that camera frame's, its source_seq that TARGETS
   // seq), so a log traces it back to the frame; every earlier TARGETS was in the machine's state too. Before the
   // first, the robot state it was computed from.
@@ -192,6 +200,7 @@ class HarvestMachine {
   std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
   std::optional<rt::Micros> hold_since_;        // standing off the swaying current fruit since ...
   bool held_ = false;                           // ... and done: it has been watched (once per fruit)
+  bool still_after_all_ = false;                // ... and seen still while held (sway.hold_check): no swaying fruit
 
   State state_ = State::kIdle;
   bool paused_ = false;
@@ -205,6 +214,7 @@ class HarvestMachine {
 
   std::optional<robot_state_t> robot_;
   rt::Micros robot_rx_ = 0;
+  geometry::PoseHistory camera_poses_{64};  // ROBOT_STATE camera poses by their utime (about 0.6 s at 100 Hz)
   struct Source {
     int64_t utime, seq;
   };

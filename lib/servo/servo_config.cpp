@@ -80,6 +80,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.view_distance = n.get(k::view_distance);
   c.triangulation_gap = n.get(k::triangulation_gap);
   c.min_triangulation_angle = n.get(k::min_triangulation_angle);
+  c.image_pose_gap = n.get(k::image_pose_gap);
   c.same_fruit_distance = n.get(k::same_fruit_distance);
   c.same_sight_angle = n.get(k::same_sight_angle);
   c.reused_id_distance = n.get(k::reused_id_distance);
@@ -151,6 +152,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.hold_spread = sw.get(ks::hold_spread);
   c.sway.hold_standoff = sw.get(ks::hold_standoff);
   c.sway.hold_time = sw.get(ks::hold_time);
+  c.sway.hold_check = sw.get(ks::hold_check);
+  c.sway.still_spread = sw.get(ks::still_spread);
   c.sway.max_wait = sw.get(ks::max_wait);
   if (c.sway.max_frequency_hz < c.sway.min_frequency_hz)
     sw.fail("max_frequency_hz", "a frequency no lower than min_frequency_hz");
@@ -203,7 +206,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::release_at_detach, k::straight_to_next, k::release_opening, k::fruit_order,
                       k::max_attempts_per_fruit, k::association_gate_px, k::min_ahead_of_home,
                       k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap,
-                      k::min_triangulation_angle, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
+                      k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
                       k::size_agreement, k::size_agreement_min, k::fills_view, k::front_fruit_size_ratio,
                       k::whole_fruit_border_px, k::goal_progress_step, k::goal_progress_angle, k::in_view_margin,
                       k::sight_aim_margin),
@@ -218,7 +221,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit, k::sway::max_centre_offset, k::sway::close_delay,
                       k::sway::close_tolerance, k::sway::hold_spread, k::sway::hold_standoff, k::sway::hold_time,
-                      k::sway::max_wait),
+                      k::sway::hold_check, k::sway::still_spread, k::sway::max_wait),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
                       k::tbz::desired_wait_s, k::tbz::arrived_rotation,

@@ -19,11 +19,11 @@
 
 #include "config/schema.hpp"
 #include "geometry/camera_model.hpp"
+#include "geometry/pose_history.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/robot_state_t.hpp"
 #include "harvest/targets_t.hpp"
-#include "vision/pose_history.hpp"
 #include "vision/reconstruction.hpp"
 #include "vision/tracking.hpp"
 
@@ -99,7 +99,7 @@ class Reconstructor {
                          std::vector<Estimate3d>& estimates) const;
 
   ReconstructorConfig config_;
-  PoseHistory camera_poses_;  // ROBOT_STATE.camera_pose
+  geometry::PoseHistory camera_poses_;  // ROBOT_STATE.camera_pose
   PixelTracker fixed_tracker_, hand_tracker_;
   HandAssociator associator_;
   std::map<int32_t, Estimate3d> known_;

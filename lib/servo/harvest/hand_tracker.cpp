@@ -131,8 +131,7 @@ void HandTracker::on_hand_targets(const targets_t& msg, Fruit& fruit, const Eige
 std::optional<Eigen::Vector3d> HandTracker::cross(const PixelMeasurement& pixel, const Fruit& fruit,
                                                   const Eigen::Isometry3d& cam) const {
   if (cfg_.triangulation_gap <= 0.0 || !fruit.sight) return std::nullopt;
-  // The newest camera pose: within one image period of the image's, and the
-  // arm moves mostly along this very ray while approaching.
+  // `cam` is where the camera took the image (HarvestMachine::image_camera).
   const Eigen::Vector2d xy = undistort_pixel(cfg_.hand_camera, pixel.u, pixel.v);
   const Eigen::Vector3d ray = cam.rotation() * Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
   const SightLine& l = *fruit.sight;

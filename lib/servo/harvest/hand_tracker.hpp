@@ -30,7 +30,7 @@ class HandTracker {
     hand_target_px_.reset();
   }
 
-  // A FRUIT_HAND message while following `fruit` from a camera at `camera`.
+  // A FRUIT_HAND message while following `fruit`, its image taken by the camera at `camera`.
   void on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
                      rt::Micros now);
   // A hand-camera TARGETS message: remembers the pixel of the target with the

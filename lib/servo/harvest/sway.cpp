@@ -29,13 +29,21 @@ void SwayEstimator::add(double t, const Eigen::Vector3d& position) {
 }
 
 double SwayEstimator::spread() const {
-  if (size() < p_.min_samples) return 0.0;
+  if (samples_.empty()) return 0.0;
+  return spread_since(samples_.front().first).value_or(0.0);
+}
+
+std::optional<double> SwayEstimator::spread_since(double t) const {
+  const auto first =
+      std::lower_bound(samples_.begin(), samples_.end(), t, [](const auto& s, double time) { return s.first < time; });
+  const auto n = std::distance(first, samples_.end());
+  if (n < p_.min_samples || n == 0) return std::nullopt;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& s : samples_) mean += s.second;
-  mean /= static_cast<double>(size());
+  for (auto it = first; it != samples_.end(); ++it) mean += it->second;
+  mean /= static_cast<double>(n);
   double ss = 0.0;
-  for (const auto& s : samples_) ss += (s.second - mean).squaredNorm();
-  return std::sqrt(ss / static_cast<double>(size()));
+  for (auto it = first; it != samples_.end(); ++it) ss += (it->second - mean).squaredNorm();
+  return std::sqrt(ss / static_cast<double>(n));
 }
 
 int SwayEstimator::grid_size() const {

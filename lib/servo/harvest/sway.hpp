@@ -50,9 +50,9 @@ class SwayEstimator {
   // frequency. The wind and the stems are the tree's: every fruit that moved
   // adds its fit's unexplained share at each frequency it was seen long
   // enough for (0.4 periods) to a sum; the frequency with the least mean
-  // share among those at least learn_fruit fruit were seen for is the tree's, and later fruit are fitted at it (their amplitude, phase and
-  // centre their own). One fruit seen briefly through a noisy camera fits a
-  // wrong frequency as well as the right one; over several the right one wins.
+  // share among those at least learn_fruit fruit were seen for is the tree's, and later fruit are fitted at it (their
+  // amplitude, phase and centre their own). One fruit seen briefly through a noisy camera fits a wrong frequency as
+  // well as the right one; over several the right one wins.
   void reset();
   int size() const { return static_cast<int>(samples_.size()); }
   // How far the positions kept lie from their mean (rms) [m]; 0 with fewer
@@ -60,6 +60,8 @@ class SwayEstimator {
   // pixel noise and the depth error's sideways share, 1-2 mm; a swaying one
   // by its sway across the axis. Unlike the fit it needs no whole period.
   double spread() const;
+  // The same over the positions seen at or after t [s]; nullopt with fewer than min_samples of them.
+  std::optional<double> spread_since(double t) const;
   std::optional<double> learned_hz() const;
 
   SwayFit fit() const;

@@ -25,6 +25,29 @@ geometry::CameraModel pinhole() {
   return k;
 }
 
+// Hand-worked: the image was taken with the camera 30 mm to the side of
+// where it is now (x = 0.03), the fruit centred in it 0.2 m ahead: the fruit
+// is at (0.03, 0, 0.2), not on the newest camera's axis at (0, 0, 0.2).
+TEST(SeenInBase, APixelIsSeenFromWhereTheCameraTookTheImage) {
+  const geometry::CameraModel k = pinhole();
+  Eigen::Isometry3d then = Eigen::Isometry3d::Identity();
+  then.translation() = Eigen::Vector3d(0.03, 0.0, 0.0);
+  const Eigen::Vector3d fruit(0.03, 0.0, 0.2);
+  PixelMeasurement seen{k.cx, k.cy, 1};
+  EXPECT_NEAR((seen_in_base(k, Eigen::Isometry3d::Identity(), seen, fruit) - Eigen::Vector3d(0.0, 0.0, 0.2)).norm(),
+              0.0, 1e-12);  // no pose of its own: seen from the newest camera
+  seen.camera = then;
+  EXPECT_NEAR((seen_in_base(k, Eigen::Isometry3d::Identity(), seen, fruit) - fruit).norm(), 0.0, 1e-12);
+  // Its depth is taken along the image's own optical axis too: the same pixel 10 px right of the centre, the
+  // camera then 0.05 m nearer the fruit: depth 0.15, x = 0.03 + 10 / fx * 0.15.
+  then.translation().z() = 0.05;
+  seen.camera = then;
+  seen.u = k.cx + 10.0;
+  const Eigen::Vector3d p = seen_in_base(k, Eigen::Isometry3d::Identity(), seen, fruit);
+  EXPECT_NEAR(p.x(), 0.03 + 10.0 / k.fx * 0.15, 1e-9);
+  EXPECT_NEAR(p.z(), 0.2, 1e-12);
+}
+
 // Hand-worked: 20 mm off the axis, 0.1 m to go, kp 2/s, tolerance 5 mm: the
 // centring needs ln(20/5) / 2 = 0.693 s, so the gripper may advance at no
 // more than 0.1 / 0.693 = 0.1443 m/s, whatever the IR phase asks (0.3).

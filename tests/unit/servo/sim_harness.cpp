@@ -25,6 +25,12 @@ Eigen::Isometry3d ArmDouble::camera() const {
   return c;
 }
 
+Eigen::Isometry3d ArmDouble::camera_at(rt::Micros t) const {
+  for (auto it = cameras_.rbegin(); it != cameras_.rend(); ++it)
+    if (it->first <= t) return it->second;
+  return cameras_.empty() ? camera() : cameras_.front().second;
+}
+
 void ArmDouble::on_attach() {
   start_ = now();
   advertise(ch::kRobotState);
@@ -80,6 +86,8 @@ void ArmDouble::step() {
   s.num_joints = 0;
   s.tool_pose = to_pose(tool_);
   s.camera_pose = to_pose(camera());
+  cameras_.emplace_back(now(), camera());
+  while (cameras_.front().first < now() - rt::kSecond) cameras_.pop_front();
   s.tool_twist = to_twist(v, w);
   s.fault_text = fault_ ? "joint 2 following error" : "";
   publish(ch::kRobotState, s);
@@ -121,9 +129,9 @@ void WorldDouble::on_attach() {
   ctx().add_timer(now() + 17 * rt::kMilli, 50 * rt::kMilli, [this] { publish_gripper(); });
 }
 
-Eigen::Vector3d WorldDouble::position(std::size_t i) const {
+Eigen::Vector3d WorldDouble::position(std::size_t i, rt::Micros t) const {
   const FruitTruth& f = spec_.fruits[i];
-  return f.position + std::sin(2.0 * M_PI * f.sway_hz * since_start() + f.sway_phase) * f.sway;
+  return f.position + std::sin(2.0 * M_PI * f.sway_hz * rt::to_seconds(t - start_) + f.sway_phase) * f.sway;
 }
 
 int WorldDouble::fixed_id(std::size_t i) const {
@@ -170,10 +178,12 @@ void WorldDouble::publish_hand() {
   const double t = since_start();
   bool hidden = spec_.hide_hand_after_s && t >= *spec_.hide_hand_after_s;
   if (hidden && spec_.hide_hand_for_s && t >= *spec_.hide_hand_after_s + *spec_.hide_hand_for_s) hidden = false;
-  const Eigen::Isometry3d cam = arm_.camera();
+  // The image was taken hand_latency_s ago, from where the camera was then.
+  const rt::Micros taken = now() - rt::from_seconds(spec_.hand_latency_s);
+  const Eigen::Isometry3d cam = spec_.hand_latency_s > 0.0 ? arm_.camera_at(taken) : arm_.camera();
   const geometry::CameraModel& k = spec_.true_hand;
   fruit_detections_t det{};
-  det.header.utime = now();
+  det.header.utime = taken;
   det.header.frame_id = "camera_hand";
   det.header.source_seq = -1;
   det.camera = "hand";
@@ -191,7 +201,7 @@ void WorldDouble::publish_hand() {
   for (std::size_t i = 0; i < spec_.fruits.size() && !hidden; ++i) {
     if (where_[i] != Where::kTree) continue;
     const auto& f = spec_.fruits[i];
-    const Eigen::Vector3d pc = cam.inverse() * position(i);
+    const Eigen::Vector3d pc = cam.inverse() * position(i, taken);
     Eigen::Vector2d px;
     if (pc.z() < 0.05 || !project_point(k, pc, px)) continue;
     const double diameter_px = k.fx * f.diameter / pc.z();

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <deque>
 #include <optional>
 #include <random>
 #include <string>
@@ -53,6 +54,9 @@ struct WorldSpec {
   std::optional<double> hand_depth_error_when_filling;
   bool hand_reports_filling = false;  // a fruit filling the image is still detected (bbox clipped to the image)
   double pixel_noise = 0.5;           // uniform +- [px]
+  // The hand camera's images reach the controller this long after they were
+  // taken (exposure, transfer, detection); their utime is when they were taken.
+  double hand_latency_s = 0.0;
   uint32_t seed = 1;
   // Fault injection (times relative to the start).
   std::optional<double> hide_hand_after_s;  // fruit disappears from the hand camera for good
@@ -97,6 +101,8 @@ class ArmDouble final : public rt::Node {
   explicit ArmDouble(const WorldSpec& spec);
   const Eigen::Isometry3d& tool() const { return tool_; }
   Eigen::Isometry3d camera() const;
+  // The camera pose at time t (the newest step at or before it, within the last second).
+  Eigen::Isometry3d camera_at(rt::Micros t) const;
   bool fault() const { return fault_; }
 
  protected:
@@ -112,6 +118,7 @@ class ArmDouble final : public rt::Node {
   rt::Micros start_ = 0;
   bool fault_ = false;
   std::optional<int64_t> first_goal_id_;
+  std::deque<std::pair<rt::Micros, Eigen::Isometry3d>> cameras_;  // camera poses of the last second's steps
 };
 
 // The world: sensors derived from the truth and the arm's true pose.
@@ -129,8 +136,9 @@ class WorldDouble final : public rt::Node {
 
  private:
   enum class Where { kTree, kGripper, kDropped, kFallen };
-  int fixed_id(std::size_t i) const;              // the fixed camera's id of fruit i
-  Eigen::Vector3d position(std::size_t i) const;  // fruit i now (swaying)
+  int fixed_id(std::size_t i) const;                                            // the fixed camera's id of fruit i
+  Eigen::Vector3d position(std::size_t i) const { return position(i, now()); }  // fruit i now (swaying)
+  Eigen::Vector3d position(std::size_t i, rt::Micros t) const;                  // ... at time t
   void publish_fixed();
   void publish_hand();
   void publish_ir();

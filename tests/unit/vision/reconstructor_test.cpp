@@ -9,7 +9,6 @@
 
 #include "config/config.hpp"
 #include "geometry/pose_msg.hpp"
-#include "vision/pose_history.hpp"
 #include "vision/reconstruction.hpp"
 #include "vision/tracking.hpp"
 
@@ -63,23 +62,6 @@ TEST(Reconstruction, FixedCameraExtrinsicIsEq4_1) {
   EXPECT_NEAR((base - Eigen::Vector3d(-0.304, 1.09685, -0.481)).norm(), 0.0, 1e-12);
   EXPECT_NEAR((t.inverse() * base - Eigen::Vector3d(0.100, -0.050, 0.900)).norm(), 0.0, 1e-12);
   EXPECT_NEAR(t.linear().determinant(), -1.0, 1e-12);  // a reflection, as the thesis prints it
-}
-
-TEST(PoseHistory, InterpolatesAndRefusesGaps) {
-  PoseHistory h;
-  Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
-  b.translation() << 0.1, 0, 0;
-  b.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  h.add(1'000'000, a);
-  h.add(1'040'000, b);
-  const auto mid = h.at(1'010'000, 100'000);
-  ASSERT_TRUE(mid);
-  EXPECT_NEAR(mid->translation().x(), 0.025, 1e-12);
-  EXPECT_NEAR(Eigen::AngleAxisd(mid->linear()).angle(), 0.05, 1e-9);
-  EXPECT_FALSE(h.at(1'020'000, 30'000));         // states 40 ms apart, 30 ms allowed, 20 ms to either
-  EXPECT_TRUE(h.at(1'050'000, 30'000));          // 10 ms after the last one: nearest
-  EXPECT_FALSE(h.at(1'100'000, 100'000));        // 60 ms after the last one
-  EXPECT_FALSE(PoseHistory().at(0, 1'000'000));  // nothing yet
 }
 
 TEST(PixelTracker, KeepsIdsAcrossFrames) {

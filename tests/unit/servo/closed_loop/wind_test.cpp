@@ -38,6 +38,7 @@ TEST_P(SwayingFruit, IsWatchedFromTheStandoffThenPicked) {
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED)
       << loop.outcome(1)->detail << "; fruit off the tool point at the close " << off.transpose() * 1e3 << " mm";
   EXPECT_TRUE(ever_noted(loop, "mm rms across the axis): held"));
+  EXPECT_FALSE(ever_noted(loop, "still after all"));  // its views while held spread by its sway: held on
   expect_within_limits(loop);
 }
 
@@ -68,6 +69,33 @@ TEST(ClosedLoop, StillFruitIsNotHeldOff) {
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
   EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
   EXPECT_FALSE(ever_noted(loop, "held"));
+}
+
+// When the first HARVEST_STATUS whose summary contains `text` was published [s from the start]; -1 if never.
+double first_noted(const Loop& loop, const std::string& text) {
+  for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+    if (st.summary.find(text) != std::string::npos) return rt::to_seconds(time - kT0);
+  return -1.0;
+}
+
+// A still fruit that looked to sway (here: hold_spread far below the pixel
+// noise's spread, as the depth error's sideways share does while the arm turns
+// in on a tree): after sway.hold_check (0.8 s) of views spreading less than
+// still_spread it is gone in on, not watched the whole hold_time (2.5 s).
+// With hold_check 0 it is held 2.5 s.
+TEST(ClosedLoop, AStillFruitThatLookedToSwayIsGoneInOnEarly) {
+  ServoConfig cfg = test_config();
+  cfg.sway.hold_spread = 0.00005;
+  Loop loop(experiment_one(), cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  const double held = first_noted(loop, "mm rms across the axis): held");
+  const double still = first_noted(loop, "still after all");
+  ASSERT_GE(held, 0.0);
+  ASSERT_GE(still, 0.0) << "never gone in early";
+  EXPECT_GE(still - held, cfg.sway.hold_check - 0.05);
+  EXPECT_LE(still - held, cfg.sway.hold_check + 0.3);
 }
 
 }  // namespace

@@ -128,6 +128,24 @@ TEST(SwayEstimator, SpreadIsTheRmsAboutTheMeanOnceEnoughIsSeen) {
   EXPECT_GT(swaying.spread(), 0.004);
 }
 
+// Seen moving (the arm turning in: the depth error's sideways share), then
+// still from t = 1: the whole spread says "swaying", the spread since t = 1
+// says still; with fewer than min_samples since a moment, nothing.
+TEST(SwayEstimator, TheSpreadSinceAMoment) {
+  SwayEstimator e{ServoConfig::Sway{}};
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  for (int i = 0; i < 30; ++i) e.add(i / 30.0, kStem + 0.01 * (i / 30.0) * x);  // 10 mm over the first second
+  for (int i = 30; i < 60; ++i) e.add(i / 30.0, kStem + 0.01 * x + (i % 2 == 1 ? 0.0005 : -0.0005) * x);
+  EXPECT_GT(e.spread(), 0.0025);
+  ASSERT_TRUE(e.spread_since(1.0));
+  EXPECT_NEAR(*e.spread_since(1.0), 0.0005, 1e-12);  // 30 samples, +-0.5 mm about 10 mm
+  EXPECT_NEAR(*e.spread_since(0.0), e.spread(), 1e-15);
+  EXPECT_FALSE(e.spread_since(59.5 / 30.0 - 11.0 / 30.0));  // the newest 11 samples: fewer than min_samples (12)
+  ASSERT_TRUE(e.spread_since(59.5 / 30.0 - 12.0 / 30.0));   // the newest 12
+  EXPECT_NEAR(*e.spread_since(59.5 / 30.0 - 12.0 / 30.0), 0.0005, 1e-12);
+  EXPECT_FALSE(e.spread_since(3.0));  // after the newest
+}
+
 TEST(SwayEstimator, KeepsTheWindowAndIgnoresRepeatedImages) {
   ServoConfig::Sway p;
   p.window = 1.0;

@@ -7,7 +7,7 @@
 #include <deque>
 #include <optional>
 
-namespace harvest::vision {
+namespace harvest::geometry {
 
 class PoseHistory {
  public:
@@ -34,4 +34,4 @@ class PoseHistory {
   std::deque<Sample> samples_;
 };
 
-}  // namespace harvest::vision
+}  // namespace harvest::geometry

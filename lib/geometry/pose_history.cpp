@@ -1,9 +1,9 @@
-#include "vision/pose_history.hpp"
+#include "geometry/pose_history.hpp"
 
 #include <algorithm>
 #include <cstdlib>
 
-namespace harvest::vision {
+namespace harvest::geometry {
 
 void PoseHistory::add(int64_t utime, const Eigen::Isometry3d& pose) {
   const Sample s{utime, pose.translation(), Eigen::Quaterniond(pose.linear()).normalized()};
@@ -43,4 +43,4 @@ std::optional<Eigen::Isometry3d> PoseHistory::at(int64_t utime, int64_t max_gap_
   return std::nullopt;
 }
 
-}  // namespace harvest::vision
+}  // namespace harvest::geometry
