@@ -1,5 +1,8 @@
 #include "sim/cameras.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "camera/image_codec.hpp"
@@ -63,12 +66,30 @@ SimCameras::SimCameras(const Scenario& scenario, const Scene& scene)
     if (zoom_) zoom_->add_primitive(sticker);
   }
   // What the fixed camera sees of each fruit before anything moves decides
-  // which fruit the run is scored on.
-  fixed_.render(scene_, scenario_.fixed_camera_truth);
+  // which fruit the run is scored on: its visible pixels over its whole disc.
+  // The silhouette is counted inside the image only: for a fruit the image
+  // border cuts, the disc's projected area (without distortion, exact on the
+  // optical axis, less off it) bounds it, else a fruit mostly outside the
+  // image would count as whole.
+  const Placement& cam = scenario_.fixed_camera_truth;
+  fixed_.render(scene_, cam);
   const auto& vis = fixed_.visible_pixels();
   const auto& sil = fixed_.silhouette_pixels();
-  for (std::size_t i = 0; i < scene_.fruit().size(); ++i)
-    start_visible_fraction_.push_back(sil[i] > 0 ? static_cast<float>(vis[i]) / static_cast<float>(sil[i]) : 0.0f);
+  const geometry::CameraModel& k = fixed_.model();
+  for (std::size_t i = 0; i < scene_.fruit().size(); ++i) {
+    const Fruit& f = scene_.fruit()[i];
+    const Vec3 c = cam.rotation.transpose() * (f.position - cam.position);
+    const double d2 = c.squaredNorm(), r2 = f.radius * f.radius;
+    double whole = sil[i];
+    if (c.z() > f.radius && d2 > r2) {
+      const double radius_px = k.fx * f.radius / std::sqrt(d2 - r2);
+      const Eigen::Vector2d px = k.project(c);
+      const bool cut = px.x() - radius_px < 0.0 || px.y() - radius_px < 0.0 || px.x() + radius_px > k.width ||
+                       px.y() + radius_px > k.height;
+      if (cut) whole = std::max(whole, std::numbers::pi * k.fx * k.fy * r2 / (d2 - r2));
+    }
+    start_visible_fraction_.push_back(whole > 0.0 ? static_cast<float>(vis[i] / whole) : 0.0f);
+  }
 }
 
 SimCameras::~SimCameras() = default;

@@ -191,5 +191,28 @@ TEST(SimCameras, AFrameShowsItsSnapshotNotTheSceneAsItIsNow) {
   EXPECT_EQ(cameras.channel(CameraId::kHand), "CAMERA_HAND");
 }
 
+// The share of a fruit the fixed camera sees at the start (which fruit a run
+// is scored on) is of its whole disc: a fruit the image border cuts in half
+// is half visible, one mostly outside the image hardly at all (its in-image
+// silhouette alone made it whole: a tree run counted a fruit 95 % outside).
+TEST(SimCameras, AFruitCutByTheImageBorderIsPartlyVisible) {
+  const auto fraction = [](double image_x_m) {  // the fruit 1 m ahead, this far right of the optical axis
+    Scenario s = test::one_fruit(Vec3(0.0, 1.0, -image_x_m));  // base -z is image right
+    Scene scene(s);
+    return SimCameras(s, scene).start_visible_fraction().at(0);
+  };
+  const geometry::CameraModel& k = test::one_fruit().fixed_camera.model;
+  // Where the right image border lies at 1 m (distortion included).
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (k.project(Eigen::Vector3d(mid, 0.0, 1.0)).x() < k.width ? lo : hi) = mid;
+  }
+  EXPECT_GT(fraction(0.0), 0.95);
+  EXPECT_NEAR(fraction(lo), 0.5, 0.1);    // the border through its centre
+  EXPECT_LT(fraction(lo + 0.025), 0.15);  // 35 mm radius, its centre 25 mm outside
+  EXPECT_EQ(fraction(lo + 0.05), 0.0f);   // wholly outside
+}
+
 }  // namespace
 }  // namespace harvest::sim
