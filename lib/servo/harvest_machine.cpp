@@ -644,6 +644,11 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
   }
   if (held_for < rt::from_seconds(p.hold_time)) return p.hold_standoff;
   held_ = true;
+  const auto spread = sway_.spread_since(rt::to_seconds(*hold_since_));
+  note_ = spread ? fmt::format("held {:.1f} s ({:.1f} mm rms while held): going in", rt::to_seconds(held_for),
+                               *spread * 1e3)
+                 : fmt::format("held {:.1f} s: going in", rt::to_seconds(held_for));
+  out.status_changed = true;
   return std::nullopt;
 }
 
