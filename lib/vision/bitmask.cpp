@@ -73,79 +73,128 @@ StructuringElement::StructuringElement(const cv::Mat& kernel, cv::Point anchor) 
     }
     if (!row.runs.empty()) rows_.push_back(std::move(row));
   }
+  run_rows_.resize(runs_.size());
+  for (const Row& row : rows_)
+    for (const int r : row.runs) run_rows_[static_cast<std::size_t>(r)].push_back(row.dy);
 }
 
 StructuringElement StructuringElement::disc(int radius) {
   return StructuringElement(cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1)));
 }
 
-// Two passes: each row's horizontal erosion (dilation) by every distinct run
-// of the element, then per output row the AND (OR) of the rows the element
-// covers. Pixels outside the image are the operation's identity, which is
-// OpenCV's default border: a row outside is skipped, and a row is padded
-// with identity words (and its tail bits set for an erosion).
-void BinaryMorphology::apply(const BitMask& src, const StructuringElement& se, BitMask& dst, bool erode) {
+namespace {
+// dst = src read d pixels to the right (bit x of a row = bit x + d of the
+// same row; outside the row: `fill`), for every row of a mask stored as
+// `rows` rows of `nw` words. One pass over the whole array, so the loop is
+// long and vectorises, then the words whose sources leave their row again.
+void shift_rows(const uint64_t* src, uint64_t* dst, int rows, int nw, int d, uint64_t fill) {
+  const int q = d >= 0 ? d / 64 : -((-d + 63) / 64), s = d - 64 * q;  // d = 64 q + s, 0 <= s < 64
+  const auto n = static_cast<std::ptrdiff_t>(rows) * nw;
+  const auto get = [&](const uint64_t* row, int i) { return i >= 0 && i < nw ? row[i] : fill; };
+  // Word j takes src[j + q] (and src[j + q + 1] when s > 0): in the array for lo <= j < hi.
+  const std::ptrdiff_t lo = std::max<std::ptrdiff_t>(0, -q), hi = std::min<std::ptrdiff_t>(n, n - q - (s != 0));
+  if (s == 0) {
+    for (std::ptrdiff_t j = lo; j < hi; ++j) dst[j] = src[j + q];
+  } else {
+    for (std::ptrdiff_t j = lo; j < hi; ++j) dst[j] = (src[j + q] >> s) | (src[j + q + 1] << (64 - s));
+  }
+  // Each row's words with a source outside the row (the carries of the bulk
+  // pass came from the neighbouring row, or were not computed).
+  // Those are the words i < -q and i >= nw - q - (s > 0) (at most one per
+  // row for a shift under 64 pixels).
+  const int first_ok = std::clamp(-q, 0, nw), last_ok = std::clamp(nw - q - (s != 0), first_ok, nw);
+  for (int y = 0; y < rows; ++y) {
+    const uint64_t* in = src + static_cast<std::ptrdiff_t>(y) * nw;
+    uint64_t* out = dst + static_cast<std::ptrdiff_t>(y) * nw;
+    const auto fix = [&](int i) {
+      out[i] = s == 0 ? get(in, i + q) : (get(in, i + q) >> s) | (get(in, i + q + 1) << (64 - s));
+    };
+    for (int i = 0; i < first_ok; ++i) fix(i);
+    for (int i = last_ok; i < nw; ++i) fix(i);
+  }
+}
+
+struct And {
+  static constexpr uint64_t kIdentity = ~uint64_t{0};
+  static uint64_t op(uint64_t a, uint64_t b) { return a & b; }
+};
+struct Or {
+  static constexpr uint64_t kIdentity = 0;
+  static uint64_t op(uint64_t a, uint64_t b) { return a | b; }
+};
+
+template <typename Op>
+void combine(uint64_t* out, const uint64_t* in, std::ptrdiff_t n) {
+  for (std::ptrdiff_t j = 0; j < n; ++j) out[j] = Op::op(out[j], in[j]);
+}
+}  // namespace
+
+// Two passes over the whole mask, each a few long loops: every distinct run
+// of the element applied along the rows (the AND, for an erosion, or OR of
+// the mask read at each of its offsets), then per element row the run's
+// result read dy rows down, combined into the output. Pixels outside the
+// image are the operation's identity, which is OpenCV's default border:
+// the rows read are padded with identity bits (a row's tail bits set for an
+// erosion), and element rows outside the image are left out.
+template <typename Op>
+void BinaryMorphology::apply(const BitMask& src, const StructuringElement& se, BitMask& dst) {
   assert(&src != &dst);
   const int width = src.width(), height = src.height(), nw = src.words();
   dst.create(width, height);
   if (src.empty() || se.empty()) return;
-  const uint64_t fill = erode ? ~uint64_t{0} : uint64_t{0};
-  const uint64_t tail = src.tail_mask();
-  const int pad = se.reach() / 64 + 1;
-  const auto nruns = se.runs().size();
-  padded_.resize(static_cast<std::size_t>(nw + 2 * pad));
-  horizontal_.resize(nruns * static_cast<std::size_t>(height) * static_cast<std::size_t>(nw));
-  const auto hrow = [&](std::size_t run, int y) {
-    return horizontal_.data() + (run * static_cast<std::size_t>(height) + static_cast<std::size_t>(y)) * nw;
-  };
-  uint64_t* p = padded_.data();
-  for (int y = 0; y < height; ++y) {
-    std::fill(p, p + pad, fill);
-    std::copy(src.row(y), src.row(y) + nw, p + pad);
-    p[pad + nw - 1] |= fill & ~tail;
-    std::fill(p + pad + nw, p + nw + 2 * pad, fill);
-    for (std::size_t r = 0; r < nruns; ++r) {
-      uint64_t* out = hrow(r, y);
-      std::fill(out, out + nw, fill);
-      const auto [d0, d1] = se.runs()[r];
-      for (int d = d0; d <= d1; ++d) {
-        // Word i of the row read d pixels to the right: bits from p[q + i] and p[q + i + 1].
-        const int pos = pad * 64 + d;
-        const int q = pos >> 6, s = pos & 63;
-        if (s == 0) {
-          for (int i = 0; i < nw; ++i) out[i] = erode ? (out[i] & p[q + i]) : (out[i] | p[q + i]);
-        } else {
-          for (int i = 0; i < nw; ++i) {
-            const uint64_t v = (p[q + i] >> s) | (p[q + i + 1] << (64 - s));
-            out[i] = erode ? (out[i] & v) : (out[i] | v);
-          }
-        }
+  constexpr uint64_t fill = Op::kIdentity;
+  const auto n = static_cast<std::ptrdiff_t>(height) * nw;
+  // The source with identity tail bits.
+  source_.assign(src.row(0), src.row(0) + n);
+  if (const uint64_t tail_fill = fill & ~src.tail_mask(); tail_fill != 0)
+    for (int y = 0; y < height; ++y) source_[static_cast<std::size_t>(y) * nw + nw - 1] |= tail_fill;
+  const std::size_t nruns = se.runs().size();
+  horizontal_.resize(nruns * static_cast<std::size_t>(n));
+  shifted_.resize(static_cast<std::size_t>(n));
+  for (std::size_t r = 0; r < nruns; ++r) {
+    uint64_t* h = horizontal_.data() + r * static_cast<std::size_t>(n);
+    const auto [d0, d1] = se.runs()[r];
+    std::fill(h, h + n, fill);
+    for (int d = d0; d <= d1; ++d) {
+      if (d == 0) {
+        combine<Op>(h, source_.data(), n);
+      } else {
+        shift_rows(source_.data(), shifted_.data(), height, nw, d, fill);
+        combine<Op>(h, shifted_.data(), n);
       }
     }
   }
-  for (int y = 0; y < height; ++y) {
-    uint64_t* out = dst.row(y);
-    std::fill(out, out + nw, fill);
-    for (const StructuringElement::Row& row : se.rows()) {
-      const int sy = y + row.dy;
-      if (sy < 0 || sy >= height) continue;
-      for (const int r : row.runs) {
-        const uint64_t* h = hrow(static_cast<std::size_t>(r), sy);
-        for (int i = 0; i < nw; ++i) out[i] = erode ? (out[i] & h[i]) : (out[i] | h[i]);
-      }
+  uint64_t* out = dst.row(0);
+  std::fill(out, out + n, fill);
+  for (const StructuringElement::Row& row : se.rows()) {
+    // Output rows y with y + dy inside the image.
+    const int y0 = std::max(0, -row.dy), y1 = std::min(height, height - row.dy);
+    if (y0 >= y1) continue;
+    for (const int r : row.runs) {
+      const uint64_t* h = horizontal_.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(n);
+      combine<Op>(out + static_cast<std::ptrdiff_t>(y0) * nw, h + static_cast<std::ptrdiff_t>(y0 + row.dy) * nw,
+                  static_cast<std::ptrdiff_t>(y1 - y0) * nw);
     }
-    out[nw - 1] &= tail;
   }
+  for (int y = 0; y < height; ++y) dst.row(y)[nw - 1] &= src.tail_mask();
+}
+
+void BinaryMorphology::erode(const BitMask& src, const StructuringElement& se, BitMask& dst) {
+  apply<And>(src, se, dst);
+}
+
+void BinaryMorphology::dilate(const BitMask& src, const StructuringElement& se, BitMask& dst) {
+  apply<Or>(src, se, dst);
 }
 
 void BinaryMorphology::open(BitMask& mask, const StructuringElement& se) {
-  apply(mask, se, tmp_, true);
-  apply(tmp_, se, mask, false);
+  erode(mask, se, tmp_);
+  dilate(tmp_, se, mask);
 }
 
 void BinaryMorphology::close(BitMask& mask, const StructuringElement& se) {
-  apply(mask, se, tmp_, false);
-  apply(tmp_, se, mask, true);
+  dilate(mask, se, tmp_);
+  erode(tmp_, se, mask);
 }
 
 }  // namespace harvest::vision

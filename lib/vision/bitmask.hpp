@@ -87,12 +87,15 @@ class StructuringElement {
   };
   const std::vector<std::pair<int, int>>& runs() const { return runs_; }  // distinct [dx0, dx1], inclusive
   const std::vector<Row>& rows() const { return rows_; }                  // rows with at least one element
+  // Per run, the dy of the rows holding it.
+  const std::vector<std::vector<int>>& run_rows() const { return run_rows_; }
   bool empty() const { return rows_.empty(); }
   int reach() const { return reach_; }  // largest |dx|
 
  private:
   std::vector<std::pair<int, int>> runs_;
   std::vector<Row> rows_;
+  std::vector<std::vector<int>> run_rows_;
   int reach_ = 0;
 };
 
@@ -100,15 +103,16 @@ class StructuringElement {
 // buffers, so one object per caller and no allocation per frame.
 class BinaryMorphology {
  public:
-  void erode(const BitMask& src, const StructuringElement& se, BitMask& dst) { apply(src, se, dst, true); }
-  void dilate(const BitMask& src, const StructuringElement& se, BitMask& dst) { apply(src, se, dst, false); }
+  void erode(const BitMask& src, const StructuringElement& se, BitMask& dst);
+  void dilate(const BitMask& src, const StructuringElement& se, BitMask& dst);
   // cv::morphologyEx MORPH_OPEN (erode, then dilate) and MORPH_CLOSE (dilate, then erode), in place.
   void open(BitMask& mask, const StructuringElement& se);
   void close(BitMask& mask, const StructuringElement& se);
 
  private:
-  void apply(const BitMask& src, const StructuringElement& se, BitMask& dst, bool erode);
-  std::vector<uint64_t> padded_, horizontal_;
+  template <typename Op>
+  void apply(const BitMask& src, const StructuringElement& se, BitMask& dst);
+  std::vector<uint64_t> source_, shifted_, horizontal_;
   BitMask tmp_;
 };
 

@@ -29,7 +29,7 @@ std::vector<cv::Mat1b> masks(int width, int height, std::mt19937& rng) {
   cv::Mat1b inner(height, width, uchar{255});
   cv::rectangle(inner, cv::Rect(0, 0, width, height), 0, 1);
   out.push_back(inner);
-  for (const double density : {0.1, 0.5, 0.9}) {
+  for (const double density : {0.1, 0.5, 0.9, 0.97, 0.995}) {  // dense: erosion keeps some pixels
     cv::Mat1b m(height, width);
     std::bernoulli_distribution on(density);
     std::uniform_int_distribution<int> value(1, 255);
