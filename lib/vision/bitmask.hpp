@@ -32,6 +32,31 @@ inline uint64_t pack64(const uint8_t* bytes) {
   return bits;
 }
 
+// n <= 64 bytes as bits (bit i set iff bytes[i] is nonzero), eight at a time.
+inline uint64_t pack_bytes(const uint8_t* bytes, int n) {
+  if (n == 64) return pack64(bytes);
+  uint64_t bits = 0;
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, bytes + i, 8);
+    const uint64_t t = (((w & 0x7F7F7F7F7F7F7F7FULL) + 0x7F7F7F7F7F7F7F7FULL) | w) & 0x8080808080808080ULL;
+    bits |= (((t >> 7) * 0x0102040810204080ULL) >> 56) << i;
+  }
+  for (; i < n; ++i) bits |= static_cast<uint64_t>(bytes[i] != 0) << i;
+  return bits;
+}
+
+// The sum of the indices of the set bits, exactly: bit k of an index is
+// set in the positions the mask M_k holds, so it adds 2^k per set bit there.
+inline int64_t bit_index_sum(uint64_t bits) {
+  constexpr uint64_t kM[6] = {0xAAAAAAAAAAAAAAAAULL, 0xCCCCCCCCCCCCCCCCULL, 0xF0F0F0F0F0F0F0F0ULL,
+                              0xFF00FF00FF00FF00ULL, 0xFFFF0000FFFF0000ULL, 0xFFFFFFFF00000000ULL};
+  int64_t sum = 0;
+  for (int k = 0; k < 6; ++k) sum += static_cast<int64_t>(std::popcount(bits & kM[k])) << k;
+  return sum;
+}
+
 // Pixel (x, y) is bit x % 64 of word x / 64 of row y. The bits past the width
 // in a row's last word are always zero.
 class BitMask {

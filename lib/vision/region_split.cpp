@@ -1,11 +1,13 @@
 #include "vision/region_split.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/bitmask.hpp"
 #include "vision/circle_fit.hpp"
 #include "vision/outline_circle.hpp"
 #include "vision/segmentation.hpp"
@@ -79,13 +81,23 @@ double sky_share(const cv::Mat3b& bgr, const Circle& c, double cb_min) {
 
 }  // namespace
 
-MaskMoments mask_moments(const cv::Mat1b& mask) {
+// 64 pixels at a time as bits: their count and the sum of their x by
+// popcounts (bit_index_sum), exact integers as before, without a branch per
+// pixel to mispredict along the mask's edges.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("popcnt", "default")))  // the popcounts in one instruction where the CPU has it
+#endif
+MaskMoments
+mask_moments(const cv::Mat1b& mask) {
   int64_t m00 = 0, m10 = 0, m01 = 0;
   for (int y = 0; y < mask.rows; ++y) {
     const uchar* row = mask.ptr<uchar>(y);
     int64_t count = 0, sum_x = 0;
-    for (int x = 0; x < mask.cols; ++x)
-      if (row[x]) ++count, sum_x += x;
+    for (int x = 0; x < mask.cols; x += 64) {
+      const uint64_t bits = pack_bytes(row + x, std::min(64, mask.cols - x));
+      const int64_t n = std::popcount(bits);
+      count += n, sum_x += n * x + bit_index_sum(bits);
+    }
     m00 += count, m10 += sum_x, m01 += count * y;
   }
   return {static_cast<double>(m00), static_cast<double>(m10), static_cast<double>(m01)};
@@ -95,7 +107,7 @@ Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size imag
   Piece p;
   p.offset = offset;
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   p.mask = std::move(mask);
   if (contours.empty()) return p;
   p.contour = *std::max_element(contours.begin(), contours.end(),
@@ -244,7 +256,7 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
       m.mask(to) |= p->mask(from);
     }
     std::vector<std::vector<cv::Point>> contours;
-    cv::findContours(m.mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    cv::findContours(m.mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     m.contour = *std::max_element(contours.begin(), contours.end(),
                                   [](const auto& x, const auto& y) { return x.size() < y.size(); });
     m.edge = a.edge;
@@ -270,7 +282,7 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
 }
 bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const {
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(crop.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::findContours(crop, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   if (contours.size() != 1) return false;
   const auto& contour = contours.front();
   const double area = cv::countNonZero(crop);

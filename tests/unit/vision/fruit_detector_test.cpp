@@ -171,7 +171,8 @@ TEST(RegionLabeler, AgreesWithOpenCvConnectedComponents) {
 
 TEST(MaskMoments, EqualOpenCvMomentsExactly) {
   std::mt19937 rng(7);
-  for (const cv::Size size : {cv::Size(1, 1), cv::Size(17, 5), cv::Size(320, 240), cv::Size(333, 257)}) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(17, 5), cv::Size(63, 4), cv::Size(64, 3), cv::Size(65, 6),
+                              cv::Size(129, 2), cv::Size(320, 240), cv::Size(333, 257)}) {
     cv::Mat1b mask(size);
     cv::randu(mask, 0, 2);
     mask = mask * 200;  // nonzero counts as 1, whatever its value
