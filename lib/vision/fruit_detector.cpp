@@ -41,9 +41,7 @@ void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Frui
   f.diameter_y_px = box.height;
   const double perimeter = cv::arcLength(contour, true);
   f.roundness = perimeter > 0 ? std::min(1.0, 4 * std::numbers::pi * f.area_px / (perimeter * perimeter)) : 0.0;
-  std::vector<cv::Point> hull;
-  cv::convexHull(contour, hull);
-  const double hull_area = cv::contourArea(hull);
+  const double hull_area = convex_hull_area(contour);
   f.solidity = hull_area > 0 ? std::min(1.0, cv::contourArea(contour) / hull_area) : 1.0;
 
   const auto& edge = piece.edge;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <limits>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
@@ -73,6 +74,49 @@ std::vector<cv::Point2d> fruit_edge_points(const std::vector<cv::Point>& contour
     }
   }
   return edge;
+}
+
+double convex_hull_area(const std::vector<cv::Point>& points) {
+  if (points.size() < 3) return 0.0;
+  int x0 = points[0].x, x1 = points[0].x;
+  for (const cv::Point& p : points) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+  // Per column its lowest and highest y (columns without points: lo > hi).
+  thread_local std::vector<int> lo, hi;
+  const auto columns = static_cast<std::size_t>(x1 - x0 + 1);
+  lo.assign(columns, std::numeric_limits<int>::max());
+  hi.assign(columns, std::numeric_limits<int>::min());
+  for (const cv::Point& p : points) {
+    const auto c = static_cast<std::size_t>(p.x - x0);
+    lo[c] = std::min(lo[c], p.y);
+    hi[c] = std::max(hi[c], p.y);
+  }
+  // Andrew's monotone chain over the candidates in (x, y) order.
+  thread_local std::vector<cv::Point> chain;
+  chain.clear();
+  const auto cross = [](cv::Point o, cv::Point a, cv::Point b) {
+    return static_cast<int64_t>(a.x - o.x) * (b.y - o.y) - static_cast<int64_t>(a.y - o.y) * (b.x - o.x);
+  };
+  const auto push = [&](cv::Point p, std::size_t floor) {
+    while (chain.size() >= floor + 2 && cross(chain[chain.size() - 2], chain.back(), p) <= 0) chain.pop_back();
+    chain.push_back(p);
+  };
+  for (std::size_t c = 0; c < columns; ++c) {  // lower hull, left to right
+    if (lo[c] > hi[c]) continue;
+    const int x = x0 + static_cast<int>(c);
+    push({x, lo[c]}, 0);
+    if (hi[c] != lo[c]) push({x, hi[c]}, 0);
+  }
+  const std::size_t lower = chain.size() - 1;
+  for (std::size_t c = columns; c-- > 0;) {  // upper hull, right to left
+    if (lo[c] > hi[c]) continue;
+    const int x = x0 + static_cast<int>(c);
+    if (hi[c] != lo[c]) push({x, hi[c]}, lower);
+    push({x, lo[c]}, lower);
+  }
+  int64_t twice = 0;  // the shoelace sum, exact
+  for (std::size_t i = 0; i + 1 < chain.size(); ++i)
+    twice += static_cast<int64_t>(chain[i].x) * chain[i + 1].y - static_cast<int64_t>(chain[i + 1].x) * chain[i].y;
+  return 0.5 * std::fabs(static_cast<double>(twice));
 }
 
 // Share of directions around (cx, cy) holding an edge point. The outline of
