@@ -159,14 +159,22 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
   if (n < 8) return std::nullopt;
   // Candidates are scored on at most about 160 points of each set (a large
   // fruit near the camera has thousands of outline points).
-  const auto thin = [](const std::vector<cv::Point2d>& points) {
+  const auto thin_into = [](const std::vector<cv::Point2d>& points, std::vector<cv::Point2d>& out) {
     const std::size_t stride = points.size() / 160 + 1;
-    std::vector<cv::Point2d> out;
+    out.clear();
     for (std::size_t i = 0; i < points.size(); i += stride) out.push_back(points[i]);
+  };
+  const auto thin = [&](const std::vector<cv::Point2d>& points) {
+    std::vector<cv::Point2d> out;
+    thin_into(points, out);
     return out;
   };
-  const std::vector<cv::Point2d> scored = n > 160 ? thin(edge) : edge;
-  const std::vector<cv::Point2d> held = outline.size() > 160 ? thin(outline) : outline;
+  // The sets themselves when they are small enough, not copies of them.
+  thread_local std::vector<cv::Point2d> thinned_edge, thinned_outline;
+  if (n > 160) thin_into(edge, thinned_edge);
+  if (outline.size() > 160) thin_into(outline, thinned_outline);
+  const std::vector<cv::Point2d>& scored = n > 160 ? thinned_edge : edge;
+  const std::vector<cv::Point2d>& held = outline.size() > 160 ? thinned_outline : outline;
   const std::size_t min_on = std::max<std::size_t>(3, 8 * scored.size() / n);
   const std::size_t allowed_out = held.size() * 3 / 100 + 1;
   const auto on_count = [&](const Circle& c, const std::vector<cv::Point2d>& points) {
@@ -180,9 +188,19 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
     return true;
   };
   std::optional<OutlineFit> best;  // .on counts the scored points until the refit
+  // A candidate needs more scored points on it than the best so far: the
+  // count stops as soon as the points left cannot get it there (the same
+  // choice as counting them all).
   const auto consider = [&](const Circle& c) {
-    const std::size_t on = on_count(c, scored);
-    if (on < min_on || (best && on <= best->on) || !contains(c)) return;
+    if (!(c.r >= r_min && c.r <= r_max)) return;  // counts no points: below min_on
+    const std::size_t needed = std::max(min_on, best ? best->on + 1 : std::size_t{0});
+    const OnCircle is_on(c);
+    std::size_t on = 0;
+    for (std::size_t i = 0; i < scored.size(); ++i) {
+      if (on + (scored.size() - i) < needed) return;
+      on += is_on(scored[i]);
+    }
+    if (on < needed || !contains(c)) return;
     best = OutlineFit{c, on};
   };
   uint32_t state = 0x9e3779b9u ^ static_cast<uint32_t>(n);
