@@ -103,59 +103,6 @@ mask_moments(const cv::Mat1b& mask) {
   return {static_cast<double>(m00), static_cast<double>(m10), static_cast<double>(m01)};
 }
 
-void distance_transform_l2(const cv::Mat1b& mask, cv::Mat1f& dist) {
-  const int m = mask.rows, n = mask.cols;
-  dist.create(m, n);
-  if (m == 0 || n == 0) return;
-  thread_local std::vector<int32_t> g;  // per pixel, rows to the nearest zero in its column
-  thread_local std::vector<int64_t> h;
-  thread_local std::vector<int32_t> v;
-  const auto fallback = [&] { cv::distanceTransform(mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE); };
-  if (n >= 500) return fallback();
-  // Columns, row by row: down from the zero above, then up from the zero below.
-  const int32_t none = 1 << 28;
-  g.resize(static_cast<std::size_t>(m) * n);
-  for (int y = 0; y < m; ++y) {
-    const uchar* row = mask.ptr<uchar>(y);
-    int32_t* gy = g.data() + static_cast<std::size_t>(y) * n;
-    const int32_t* above = y > 0 ? gy - n : nullptr;
-    for (int x = 0; x < n; ++x) gy[x] = row[x] == 0 ? 0 : (above ? std::min(none, above[x] + 1) : none);
-  }
-  for (int y = m - 2; y >= 0; --y) {
-    int32_t* gy = g.data() + static_cast<std::size_t>(y) * n;
-    const int32_t* below = gy + n;
-    for (int x = 0; x < n; ++x) gy[x] = std::min(gy[x], below[x] + 1);
-  }
-  for (int x = 0; x < n; ++x)
-    if (g[static_cast<std::size_t>(x)] >= none) return fallback();  // a column without a zero
-  // Rows: the lower envelope of the parabolas (x - p)^2 + g(p)^2 over p.
-  // With H(p) = g(p)^2 + p^2, parabolas p < q cross at (H(q) - H(p)) / 2 (q - p).
-  h.resize(static_cast<std::size_t>(n));
-  v.resize(static_cast<std::size_t>(n));
-  for (int y = 0; y < m; ++y) {
-    const int32_t* gy = g.data() + static_cast<std::size_t>(y) * n;
-    float* out = dist.ptr<float>(y);
-    for (int p = 0; p < n; ++p) h[p] = static_cast<int64_t>(gy[p]) * gy[p] + static_cast<int64_t>(p) * p;
-    int k = 0;
-    v[0] = 0;
-    for (int q = 1; q < n; ++q) {
-      // Drop the top parabola while the new one overtakes it no later than it overtook the one below.
-      while (k > 0) {
-        const int p = v[k], o = v[k - 1];
-        if ((h[q] - h[p]) * (p - o) > (h[p] - h[o]) * (q - p)) break;
-        --k;
-      }
-      v[++k] = q;
-    }
-    for (int x = 0, j = 0; x < n; ++x) {
-      while (j < k && h[v[j + 1]] - h[v[j]] <= 2 * static_cast<int64_t>(x) * (v[j + 1] - v[j])) ++j;
-      const int p = v[j];
-      const int64_t d2 = static_cast<int64_t>(x - p) * (x - p) + static_cast<int64_t>(gy[p]) * gy[p];
-      out[x] = std::sqrt(static_cast<float>(d2));
-    }
-  }
-}
-
 Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region) const {
   Piece p;
   p.offset = offset;
@@ -353,7 +300,7 @@ bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::S
 }
 std::vector<std::pair<cv::Mat1b, cv::Point>> RegionSplitter::split(const cv::Mat1b& crop, cv::Point offset) const {
   cv::Mat1f dist;
-  distance_transform_l2(crop, dist);
+  cv::distanceTransform(crop, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   double max_dist = 0;
   cv::minMaxLoc(dist, nullptr, &max_dist);
   const float floor_value =

@@ -23,16 +23,6 @@ struct MaskMoments {
 };
 MaskMoments mask_moments(const cv::Mat1b& mask);
 
-// cv::distanceTransform(mask, dist, DIST_L2, DIST_MASK_PRECISE), the same
-// floats: each pixel's exact squared distance to the nearest zero pixel
-// (integers: columns, then the lower envelope of parabolas along each row,
-// Felzenszwalb and Huttenlocher) and its float square root. OpenCV runs the
-// envelope in float, which picks the same minimum wherever no integer lies
-// within its rounding of an intersection, i.e. for images under 500 pixels
-// wide; wider ones, and masks with a column without a zero (OpenCV's 1e15
-// stands in for infinity there), are handed to OpenCV.
-void distance_transform_l2(const cv::Mat1b& mask, cv::Mat1f& dist);
-
 // A piece of the mask that may be one fruit: a region, a part of a split
 // region, or fragments merged because they lie on one circle.
 struct Piece {

@@ -54,50 +54,6 @@ TEST(ConvexHullArea, EqualsOpenCvsHullAreaExactly) {
   }
 }
 
-void expect_distance_equals_opencv(const cv::Mat1b& m, const std::string& what) {
-  cv::Mat1f ours, ref;
-  distance_transform_l2(m, ours);
-  cv::distanceTransform(m, ref, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  ASSERT_EQ(ours.size(), ref.size()) << what;
-  ASSERT_EQ(cv::countNonZero(ours != ref), 0) << what;  // every float the same
-}
-
-TEST(DistanceTransform, SameFloatsAsOpenCvsPrecise) {
-  std::mt19937 rng(17);
-  cv::setNumThreads(1);
-  // Blobs with an empty frame, as the splitter's crops, up to 499 wide.
-  for (int k = 0; k < 120; ++k) {
-    std::uniform_int_distribution<int> side(3, k < 100 ? 120 : 499);
-    const int w = side(rng), h = side(rng);
-    cv::Mat1b m = cv::Mat1b::zeros(h, w);
-    std::uniform_int_distribution<int> ux(0, w - 1), uy(0, h - 1), ur(1, std::max(2, std::min(w, h) / 2));
-    for (int i = 0; i < 5; ++i) cv::circle(m, {ux(rng), uy(rng)}, ur(rng), 255, -1);
-    for (int i = 0; i < 3; ++i) cv::circle(m, {ux(rng), uy(rng)}, ur(rng) / 3, 0, -1);
-    cv::rectangle(m, cv::Rect(0, 0, w, h), 0, 1);
-    expect_distance_equals_opencv(m, "framed blobs " + std::to_string(k));
-  }
-  // Random speckle, no frame: columns without a zero go to OpenCV, the rest is ours.
-  for (const double density : {0.3, 0.8, 0.97, 1.0}) {
-    for (const cv::Size size : {cv::Size(1, 1), cv::Size(1, 7), cv::Size(9, 1), cv::Size(64, 40), cv::Size(333, 57)}) {
-      cv::Mat1b m(size);
-      std::bernoulli_distribution on(density);
-      for (int y = 0; y < m.rows; ++y)
-        for (int x = 0; x < m.cols; ++x) m(y, x) = on(rng) ? 255 : 0;
-      expect_distance_equals_opencv(m, "speckle " + std::to_string(density) + " " + std::to_string(size.width));
-    }
-  }
-  // Empty, and a single zero pixel far from the others (long parabolas).
-  expect_distance_equals_opencv(cv::Mat1b::zeros(20, 30), "empty");
-  cv::Mat1b one(200, 300, uchar{255});
-  for (int x = 0; x < 300; ++x) one(0, x) = 0;
-  one(150, 7) = 0;
-  expect_distance_equals_opencv(one, "top row and one pixel");
-  // Wider than 500: OpenCV's own.
-  cv::Mat1b wide = cv::Mat1b::zeros(5, 600);
-  wide(cv::Rect(10, 1, 580, 3)) = 255;
-  expect_distance_equals_opencv(wide, "wide");
-}
-
 // fit_circle as it was: Eigen outer products per point.
 std::optional<Circle> fit_circle_eigen(const std::vector<cv::Point2d>& points, int iterations = 10) {
   const auto n = static_cast<Eigen::Index>(points.size());
