@@ -9,6 +9,8 @@
 #include "../../unit/vision/opencv_reference.hpp"
 #include "vision/bitmask.hpp"
 #include "vision/fruit_detector.hpp"
+#include "vision/outline_circle.hpp"
+#include "vision/region_split.hpp"
 #include "vision/segmentation.hpp"
 
 namespace {
@@ -206,6 +208,55 @@ void BM_CanopyMask_OpenCV(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_CanopyMask_OpenCV)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// ---- the splitter's and detector's geometry against OpenCV ----
+
+// A region crop as the splitter gets one: two touching fruit of radius r
+// with an empty frame.
+cv::Mat1b two_fruit_crop(int r) {
+  cv::Mat1b crop = cv::Mat1b::zeros(2 * r + 4, 4 * r);
+  cv::circle(crop, {r + 1, r + 2}, r, 255, -1);
+  cv::circle(crop, {3 * r - 2, r + 2}, r, 255, -1);
+  return crop;
+}
+
+// The outline of the crop above (the largest outer contour).
+std::vector<cv::Point> crop_outline(int r) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(two_fruit_crop(r), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  return contours.front();
+}
+
+void BM_HullArea_Ours(benchmark::State& state) {
+  const auto outline = crop_outline(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(convex_hull_area(outline));
+  state.counters["target_ratio"] = 0.5;
+}
+BENCHMARK(BM_HullArea_Ours)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
+
+void BM_HullArea_OpenCV(benchmark::State& state) {
+  const auto outline = crop_outline(static_cast<int>(state.range(0)));
+  std::vector<cv::Point> hull;
+  for (auto _ : state) {
+    cv::convexHull(outline, hull);
+    benchmark::DoNotOptimize(cv::contourArea(hull));
+  }
+}
+BENCHMARK(BM_HullArea_OpenCV)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
+
+// Zeroth and first moments of a crop (mask_moments against cv::moments, binary).
+void BM_MaskMoments_Ours(benchmark::State& state) {
+  const cv::Mat1b crop = two_fruit_crop(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(mask_moments(crop).m10);
+  state.counters["target_ratio"] = 0.5;
+}
+BENCHMARK(BM_MaskMoments_Ours)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
+
+void BM_MaskMoments_OpenCV(benchmark::State& state) {
+  const cv::Mat1b crop = two_fruit_crop(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(cv::moments(crop, true).m10);
+}
+BENCHMARK(BM_MaskMoments_OpenCV)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
 
 // Canopy mode on the tree-like frame, with (1) and without (0) the fragment
 // steps (peel_to_circle, merge_fragments).
