@@ -83,37 +83,6 @@ StructuringElement StructuringElement::disc(int radius) {
 }
 
 namespace {
-// dst = src read d pixels to the right (bit x of a row = bit x + d of the
-// same row; outside the row: `fill`), for every row of a mask stored as
-// `rows` rows of `nw` words. One pass over the whole array, so the loop is
-// long and vectorises, then the words whose sources leave their row again.
-void shift_rows(const uint64_t* src, uint64_t* dst, int rows, int nw, int d, uint64_t fill) {
-  const int q = d >= 0 ? d / 64 : -((-d + 63) / 64), s = d - 64 * q;  // d = 64 q + s, 0 <= s < 64
-  const auto n = static_cast<std::ptrdiff_t>(rows) * nw;
-  const auto get = [&](const uint64_t* row, int i) { return i >= 0 && i < nw ? row[i] : fill; };
-  // Word j takes src[j + q] (and src[j + q + 1] when s > 0): in the array for lo <= j < hi.
-  const std::ptrdiff_t lo = std::max<std::ptrdiff_t>(0, -q), hi = std::min<std::ptrdiff_t>(n, n - q - (s != 0));
-  if (s == 0) {
-    for (std::ptrdiff_t j = lo; j < hi; ++j) dst[j] = src[j + q];
-  } else {
-    for (std::ptrdiff_t j = lo; j < hi; ++j) dst[j] = (src[j + q] >> s) | (src[j + q + 1] << (64 - s));
-  }
-  // Each row's words with a source outside the row (the carries of the bulk
-  // pass came from the neighbouring row, or were not computed).
-  // Those are the words i < -q and i >= nw - q - (s > 0) (at most one per
-  // row for a shift under 64 pixels).
-  const int first_ok = std::clamp(-q, 0, nw), last_ok = std::clamp(nw - q - (s != 0), first_ok, nw);
-  for (int y = 0; y < rows; ++y) {
-    const uint64_t* in = src + static_cast<std::ptrdiff_t>(y) * nw;
-    uint64_t* out = dst + static_cast<std::ptrdiff_t>(y) * nw;
-    const auto fix = [&](int i) {
-      out[i] = s == 0 ? get(in, i + q) : (get(in, i + q) >> s) | (get(in, i + q + 1) << (64 - s));
-    };
-    for (int i = 0; i < first_ok; ++i) fix(i);
-    for (int i = last_ok; i < nw; ++i) fix(i);
-  }
-}
-
 struct And {
   static constexpr uint64_t kIdentity = ~uint64_t{0};
   static uint64_t op(uint64_t a, uint64_t b) { return a & b; }
@@ -123,19 +92,31 @@ struct Or {
   static uint64_t op(uint64_t a, uint64_t b) { return a | b; }
 };
 
+// dst = Op(dst, src read d pixels to the right) over n words of rows laid
+// out with guard words of Op's identity between them (at least |d| / 64 + 1
+// before and after each row): bit x of a row meets bit x + d of the same
+// row, or a guard's identity bit past its ends. One long loop over the
+// array, so it vectorises; what it writes into the guards is not used.
 template <typename Op>
-void combine(uint64_t* out, const uint64_t* in, std::ptrdiff_t n) {
-  for (std::ptrdiff_t j = 0; j < n; ++j) out[j] = Op::op(out[j], in[j]);
+void combine_shifted(const uint64_t* src, uint64_t* dst, std::ptrdiff_t begin, std::ptrdiff_t end, int d) {
+  const int q = d >= 0 ? d / 64 : -((-d + 63) / 64), s = d - 64 * q;  // d = 64 q + s, 0 <= s < 64
+  if (s == 0) {
+    for (std::ptrdiff_t j = begin; j < end; ++j) dst[j] = Op::op(dst[j], src[j + q]);
+  } else {
+    for (std::ptrdiff_t j = begin; j < end; ++j)
+      dst[j] = Op::op(dst[j], (src[j + q] >> s) | (src[j + q + 1] << (64 - s)));
+  }
 }
+
 }  // namespace
 
 // Two passes over the whole mask, each a few long loops: every distinct run
 // of the element applied along the rows (the AND, for an erosion, or OR of
 // the mask read at each of its offsets), then per element row the run's
 // result read dy rows down, combined into the output. Pixels outside the
-// image are the operation's identity, which is OpenCV's default border:
-// the rows read are padded with identity bits (a row's tail bits set for an
-// erosion), and element rows outside the image are left out.
+// image are the operation's identity, which is OpenCV's default border: the
+// rows are copied with identity guard words between them (and a row's tail
+// bits set, for an erosion), and element rows outside the image are left out.
 template <typename Op>
 void BinaryMorphology::apply(const BitMask& src, const StructuringElement& se, BitMask& dst) {
   assert(&src != &dst);
@@ -143,40 +124,48 @@ void BinaryMorphology::apply(const BitMask& src, const StructuringElement& se, B
   dst.create(width, height);
   if (src.empty() || se.empty()) return;
   constexpr uint64_t fill = Op::kIdentity;
-  const auto n = static_cast<std::ptrdiff_t>(height) * nw;
-  // The source with identity tail bits.
-  source_.assign(src.row(0), src.row(0) + n);
-  if (const uint64_t tail_fill = fill & ~src.tail_mask(); tail_fill != 0)
-    for (int y = 0; y < height; ++y) source_[static_cast<std::size_t>(y) * nw + nw - 1] |= tail_fill;
+  const int guard = se.reach() / 64 + 1;
+  const std::ptrdiff_t stride = nw + guard;  // row y's words start at guard + y * stride
+  const std::ptrdiff_t n = guard + height * stride;
+  const auto at = [&](int y) { return guard + y * stride; };
+  // The source with guards and identity tail bits.
+  source_.assign(static_cast<std::size_t>(n), fill);
+  const uint64_t tail_fill = fill & ~src.tail_mask();
+  for (int y = 0; y < height; ++y) {
+    std::copy(src.row(y), src.row(y) + nw, source_.data() + at(y));
+    source_[static_cast<std::size_t>(at(y) + nw - 1)] |= tail_fill;
+  }
+  // Each run of the element along the rows (words of rows and guards between).
   const std::size_t nruns = se.runs().size();
   horizontal_.resize(nruns * static_cast<std::size_t>(n));
-  shifted_.resize(static_cast<std::size_t>(n));
+  runs_.assign(nruns, nullptr);
+  const std::ptrdiff_t first = at(0), last = at(height - 1) + nw;
   for (std::size_t r = 0; r < nruns; ++r) {
-    uint64_t* h = horizontal_.data() + r * static_cast<std::size_t>(n);
     const auto [d0, d1] = se.runs()[r];
-    std::fill(h, h + n, fill);
-    for (int d = d0; d <= d1; ++d) {
-      if (d == 0) {
-        combine<Op>(h, source_.data(), n);
-      } else {
-        shift_rows(source_.data(), shifted_.data(), height, nw, d, fill);
-        combine<Op>(h, shifted_.data(), n);
-      }
+    if (d0 == 0 && d1 == 0) {  // the source itself
+      runs_[r] = source_.data();
+      continue;
     }
+    uint64_t* h = horizontal_.data() + r * static_cast<std::size_t>(n);
+    runs_[r] = h;
+    std::fill(h, h + n, fill);
+    for (int d = d0; d <= d1; ++d) combine_shifted<Op>(source_.data(), h, first, last, d);
   }
-  uint64_t* out = dst.row(0);
-  std::fill(out, out + n, fill);
+  // Each element row: its run's rows dy below, for output rows y with y + dy inside the image.
+  result_.assign(static_cast<std::size_t>(n), fill);
   for (const StructuringElement::Row& row : se.rows()) {
-    // Output rows y with y + dy inside the image.
     const int y0 = std::max(0, -row.dy), y1 = std::min(height, height - row.dy);
     if (y0 >= y1) continue;
     for (const int r : row.runs) {
-      const uint64_t* h = horizontal_.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(n);
-      combine<Op>(out + static_cast<std::ptrdiff_t>(y0) * nw, h + static_cast<std::ptrdiff_t>(y0 + row.dy) * nw,
-                  static_cast<std::ptrdiff_t>(y1 - y0) * nw);
+      const uint64_t* h = runs_[static_cast<std::size_t>(r)] + static_cast<std::ptrdiff_t>(row.dy) * stride;
+      uint64_t* out = result_.data();
+      for (std::ptrdiff_t j = at(y0), end = at(y1 - 1) + nw; j < end; ++j) out[j] = Op::op(out[j], h[j]);
     }
   }
-  for (int y = 0; y < height; ++y) dst.row(y)[nw - 1] &= src.tail_mask();
+  for (int y = 0; y < height; ++y) {
+    std::copy(result_.data() + at(y), result_.data() + at(y) + nw, dst.row(y));
+    dst.row(y)[nw - 1] &= src.tail_mask();
+  }
 }
 
 void BinaryMorphology::erode(const BitMask& src, const StructuringElement& se, BitMask& dst) {

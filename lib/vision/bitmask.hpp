@@ -137,7 +137,8 @@ class BinaryMorphology {
  private:
   template <typename Op>
   void apply(const BitMask& src, const StructuringElement& se, BitMask& dst);
-  std::vector<uint64_t> source_, shifted_, horizontal_;
+  std::vector<uint64_t> source_, horizontal_, result_;
+  std::vector<const uint64_t*> runs_;  // per run of the element, its rows' result
   BitMask tmp_;
 };
 
