@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
@@ -16,13 +17,6 @@ namespace harvest::vision {
 
 namespace {
 
-// Holes are background pixels not reachable from the crop border (the crop
-// has a one-pixel empty frame, so flooding from (0, 0) reaches all outside).
-void fill_holes(cv::Mat1b& crop) {
-  cv::Mat1b outside = crop.clone();
-  cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
-  crop |= ~outside;
-}
 // Fragment merging (merge_fragments), tuned on the simulated tree
 // (tools: harvest-vision-eval): a fragment with an outer edge has at least
 // this share of its edge points on the merged circle,
@@ -84,6 +78,36 @@ double sky_share(const cv::Mat3b& bgr, const Circle& c, double cb_min) {
 // 64 pixels at a time as bits: their count and the sum of their x by
 // popcounts (bit_index_sum), exact integers as before, without a branch per
 // pixel to mispredict along the mask's edges.
+// Holes are the background's 4-connected parts other than the one holding
+// (0, 0) (the crop has a one-pixel empty frame, so that one is all outside):
+// the background labelled by runs on its packed bits, and every run of the
+// other parts painted in. Flooding from (0, 0) (cv::floodFill, 4-connected)
+// and adding what it did not reach gave the same pixels and cost a copy of
+// the crop, the fill and two passes over it.
+void fill_holes(cv::Mat1b& crop) {
+  if (crop.empty()) return;
+  if (crop(0, 0) != 0) {  // no empty frame: flood what is connected to (0, 0), as before
+    cv::Mat1b outside = crop.clone();
+    cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
+    crop |= ~outside;
+    return;
+  }
+  thread_local BitMask background;
+  thread_local RegionLabeler labeler;
+  background.create(crop.cols, crop.rows);
+  for (int y = 0; y < crop.rows; ++y) {
+    const uchar* row = crop.ptr<uchar>(y);
+    uint64_t* bits = background.row(y);
+    for (int x = 0; x < crop.cols; x += 64) {
+      const int n = std::min(64, crop.cols - x);
+      bits[x / 64] = ~pack_bytes(row + x, n) & (n == 64 ? ~uint64_t{0} : (uint64_t{1} << n) - 1);
+    }
+  }
+  labeler.label(background, 0);  // region 0 starts at (0, 0): the outside
+  for (const Run& r : labeler.runs())
+    if (r.label > 0) std::memset(crop.ptr<uchar>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
+}
+
 #if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target_clones("popcnt", "default")))  // the popcounts in one instruction where the CPU has it
 #endif

@@ -23,6 +23,10 @@ struct MaskMoments {
 };
 MaskMoments mask_moments(const cv::Mat1b& mask);
 
+// Fills the holes of a region's crop in place: background pixels not
+// 4-connected to (0, 0), as cv::floodFill from (0, 0) leaves them.
+void fill_holes(cv::Mat1b& crop);
+
 // A piece of the mask that may be one fruit: a region, a part of a split
 // region, or fragments merged because they lie on one circle.
 struct Piece {

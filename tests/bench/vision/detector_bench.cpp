@@ -258,6 +258,40 @@ void BM_MaskMoments_OpenCV(benchmark::State& state) {
 }
 BENCHMARK(BM_MaskMoments_OpenCV)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
 
+// Hole filling of the crop with leaf-shaped holes (fill_holes against
+// flooding the outside with cv::floodFill).
+cv::Mat1b crop_with_holes(int r) {
+  cv::Mat1b crop = two_fruit_crop(r);
+  cv::ellipse(crop, {r, r}, {r / 3, r / 8 + 1}, 30, 0, 360, 0, -1);
+  cv::ellipse(crop, {3 * r, r + 3}, {r / 4, r / 8 + 1}, 100, 0, 360, 0, -1);
+  return crop;
+}
+
+void BM_FillHoles_Ours(benchmark::State& state) {
+  const cv::Mat1b crop = crop_with_holes(static_cast<int>(state.range(0)));
+  cv::Mat1b m;
+  for (auto _ : state) {
+    crop.copyTo(m);
+    fill_holes(m);
+    benchmark::DoNotOptimize(m.data);
+  }
+  state.counters["target_ratio"] = 0.7;
+}
+BENCHMARK(BM_FillHoles_Ours)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
+
+void BM_FillHoles_OpenCV(benchmark::State& state) {
+  const cv::Mat1b crop = crop_with_holes(static_cast<int>(state.range(0)));
+  cv::Mat1b m;
+  for (auto _ : state) {
+    crop.copyTo(m);
+    cv::Mat1b outside = m.clone();
+    cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
+    m |= ~outside;
+    benchmark::DoNotOptimize(m.data);
+  }
+}
+BENCHMARK(BM_FillHoles_OpenCV)->Arg(12)->Arg(50)->Unit(benchmark::kMicrosecond);
+
 // Canopy mode on the tree-like frame, with (1) and without (0) the fragment
 // steps (peel_to_circle, merge_fragments).
 void BM_DetectorCanopyTreeFrame(benchmark::State& state) {

@@ -54,6 +54,42 @@ TEST(ConvexHullArea, EqualsOpenCvsHullAreaExactly) {
   }
 }
 
+TEST(FillHoles, SamePixelsAsFloodingTheOutside) {
+  std::mt19937 rng(19);
+  const auto flood = [](cv::Mat1b crop) {
+    cv::Mat1b outside = crop.clone();
+    cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
+    crop |= ~outside;
+    return crop;
+  };
+  for (int k = 0; k < 300; ++k) {
+    std::uniform_int_distribution<int> side(1, k < 250 ? 90 : 200);
+    const int w = side(rng), h = side(rng);
+    cv::Mat1b m = cv::Mat1b::zeros(h, w);
+    std::uniform_int_distribution<int> ux(0, w - 1), uy(0, h - 1), ur(1, std::max(1, std::min(w, h) / 2));
+    for (int i = 0; i < 4; ++i) cv::circle(m, {ux(rng), uy(rng)}, ur(rng), 255, -1);
+    for (int i = 0; i < 4; ++i) cv::circle(m, {ux(rng), uy(rng)}, ur(rng) / 2, 0, -1);  // holes, some open
+    if (k % 3 == 0) {  // speckle: holes of one pixel, diagonal gaps (4- vs 8-connected)
+      std::bernoulli_distribution on(0.6);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) m(y, x) = on(rng) ? 255 : 0;
+    }
+    if (k % 2 == 0) cv::rectangle(m, cv::Rect(0, 0, w, h), 0, 1);  // the splitter's empty frame
+    if (k % 5 == 0) m(0, 0) = 255;                                 // and without: the flooding fallback
+    cv::Mat1b ours = m.clone();
+    fill_holes(ours);
+    ASSERT_EQ(cv::countNonZero(ours != flood(m)), 0) << "mask " << k << " (" << w << "x" << h << ")";
+  }
+  cv::Mat1b ring = cv::Mat1b::zeros(9, 70);  // a ring across the 64-pixel word boundary
+  cv::rectangle(ring, cv::Rect(55, 2, 12, 5), 255, 1);
+  cv::Mat1b filled = ring.clone();
+  fill_holes(filled);
+  EXPECT_EQ(cv::countNonZero(filled), cv::countNonZero(ring) + 10 * 3);
+  cv::Mat1b none;
+  fill_holes(none);
+  EXPECT_TRUE(none.empty());
+}
+
 // fit_circle as it was: Eigen outer products per point.
 std::optional<Circle> fit_circle_eigen(const std::vector<cv::Point2d>& points, int iterations = 10) {
   const auto n = static_cast<Eigen::Index>(points.size());
