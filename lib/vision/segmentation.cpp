@@ -151,17 +151,24 @@ bool have_avx2() {
 }
 #endif
 
+// The AVX2 kernel when it is allowed and the CPU has it.
+bool use_avx2(bool allow_simd) {
+#ifdef HARVEST_HAVE_AVX2_KERNEL
+  return allow_simd && have_avx2();
+#else
+  (void)allow_simd;
+  return false;
+#endif
+}
+
+// An empty range (lo > hi) rejects everything.
+bool empty_range(const IntThresholds& it) { return it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2]; }
+
 void threshold_image(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
                      uint8_t* mask, std::size_t mask_stride, bool allow_simd) {
   const IntThresholds it = IntThresholds::from(t);
-  // An empty range (lo > hi) must reject everything.
-  const bool empty = it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2];
-#ifdef HARVEST_HAVE_AVX2_KERNEL
-  const bool simd = allow_simd && have_avx2();
-#else
-  const bool simd = false;
-  (void)allow_simd;
-#endif
+  const bool empty = empty_range(it);
+  [[maybe_unused]] const bool simd = use_avx2(allow_simd);
   for (int y = 0; y < height; ++y) {
     uint8_t* m = mask + static_cast<std::size_t>(y) * mask_stride;
     const uint8_t* p = bgr + static_cast<std::size_t>(y) * stride;
@@ -190,13 +197,8 @@ namespace {
 void threshold_bits(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask, bool allow_simd) {
   mask.create(bgr.cols, bgr.rows);
   const IntThresholds it = IntThresholds::from(t);
-  if (it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2]) return;  // empty range: nothing inside
-#ifdef HARVEST_HAVE_AVX2_KERNEL
-  const bool simd = allow_simd && have_avx2();
-#else
-  const bool simd = false;
-  (void)allow_simd;
-#endif
+  if (empty_range(it)) return;  // nothing inside
+  [[maybe_unused]] const bool simd = use_avx2(allow_simd);
   const int width = bgr.cols;
   for (int y = 0; y < bgr.rows; ++y) {
     const uint8_t* p = bgr.ptr<uint8_t>(y);

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "synthetic_scene.hpp"
 #include "vision/segmentation.hpp"
 
 namespace harvest::vision {
@@ -162,22 +163,11 @@ TEST(BinaryMorphology, DiscIsOpenCvsEllipse) {
 
 TEST(ColorThreshold, PackedMaskIsTheByteMaskPacked) {
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> bound(-300, 300);
   for (const int width : {640, 333, 129, 64, 63, 17, 15, 1}) {
     cv::Mat3b img(9, width);
     cv::randu(img, cv::Scalar::all(0), cv::Scalar::all(256));
     for (int k = 0; k < 30; ++k) {
-      ColorThresholds t;
-      if (k > 0) {
-        double a = bound(rng), b = bound(rng), c = bound(rng), d = bound(rng), e = bound(rng), f = bound(rng);
-        if (k % 7 != 0) {
-          if (a > b) std::swap(a, b);
-          if (c > d) std::swap(c, d);
-          if (e > f) std::swap(e, f);
-        }
-        t = {a, b, c, d, e, f};
-      }
-      if (k == 29) t = {-1e7, 1e7, -1e7, 1e7, -1e7, 1e7};  // everything inside
+      const ColorThresholds t = test::random_thresholds(rng, k, 29);
       const cv::Mat1b bytes = threshold_crcgcb(img, t);
       BitMask fast, portable;
       fast.create(3, 3);  // a mask of another size is resized
