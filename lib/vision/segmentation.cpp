@@ -117,12 +117,18 @@ __attribute__((target("avx2"))) void threshold_row_avx2(const uint8_t* p, uint8_
     // In-lane interleave: "lo" holds pixels 0-3 and 8-11, "hi" 4-7 and 12-15.
     const __m256i rg_lo = _mm256_unpacklo_epi16(r16, g16), rg_hi = _mm256_unpackhi_epi16(r16, g16);
     const __m256i b_lo = _mm256_unpacklo_epi16(b16, zero), b_hi = _mm256_unpackhi_epi16(b16, zero);
-    const __m256i in_lo = _mm256_and_si256(
-        _mm256_and_si256(inside(rg_lo, b_lo, rg_cr, b_cr, lo0, w0), inside(rg_lo, b_lo, rg_cg, b_cg, lo1, w1)),
-        inside(rg_lo, b_lo, rg_cb, b_cb, lo2, w2));
-    const __m256i in_hi = _mm256_and_si256(
-        _mm256_and_si256(inside(rg_hi, b_hi, rg_cr, b_cr, lo0, w0), inside(rg_hi, b_hi, rg_cg, b_cg, lo1, w1)),
-        inside(rg_hi, b_hi, rg_cb, b_cb, lo2, w2));
+    // Cr first: leaves, bark and sky fail it, and a block where every pixel
+    // does is outside whatever Cg and Cb say (the mask is already clear
+    // there when packed; the byte mask gets its zeros).
+    const __m256i cr_lo = inside(rg_lo, b_lo, rg_cr, b_cr, lo0, w0), cr_hi = inside(rg_hi, b_hi, rg_cr, b_cr, lo0, w0);
+    if (_mm256_testz_si256(_mm256_or_si256(cr_lo, cr_hi), _mm256_or_si256(cr_lo, cr_hi))) {
+      if constexpr (!kBits) _mm_storeu_si128(reinterpret_cast<__m128i*>(m + x), _mm_setzero_si128());
+      continue;
+    }
+    const __m256i in_lo = _mm256_and_si256(_mm256_and_si256(cr_lo, inside(rg_lo, b_lo, rg_cg, b_cg, lo1, w1)),
+                                           inside(rg_lo, b_lo, rg_cb, b_cb, lo2, w2));
+    const __m256i in_hi = _mm256_and_si256(_mm256_and_si256(cr_hi, inside(rg_hi, b_hi, rg_cg, b_cg, lo1, w1)),
+                                           inside(rg_hi, b_hi, rg_cb, b_cb, lo2, w2));
     // packs restores pixel order within each lane: lane 0 = 0-7, lane 1 = 8-15.
     const __m256i in16 = _mm256_packs_epi32(in_lo, in_hi);
     const __m128i in8 = _mm_packs_epi16(_mm256_castsi256_si128(in16), _mm256_extracti128_si256(in16, 1));
