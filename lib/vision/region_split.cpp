@@ -127,11 +127,15 @@ mask_moments(const cv::Mat1b& mask) {
   return {static_cast<double>(m00), static_cast<double>(m10), static_cast<double>(m01)};
 }
 
-Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region) const {
+Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region,
+                                 Outline* known) const {
   Piece p;
   p.offset = offset;
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (known && known->traced)
+    contours = std::move(known->contours);
+  else
+    cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   p.mask = std::move(mask);
   if (contours.empty()) return p;
   p.contour = *std::max_element(contours.begin(), contours.end(),
@@ -147,7 +151,10 @@ Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size imag
   // The flat runs of a digital circle's outline are about 2 sqrt(r) long;
   // a leaf's straight border across the fruit is far longer.
   const double diameter = 2.0 * std::sqrt(p.area / std::numbers::pi);
-  p.edge = fruit_edge_points(p.contour, offset, image, 3.0 * std::sqrt(0.5 * diameter) + 2.0);
+  if (known && known->has_edge && contours.size() == 1)
+    p.edge = std::move(known->edge);  // the same contour, the same maximum edge length
+  else
+    p.edge = fruit_edge_points(p.contour, offset, image, 3.0 * std::sqrt(0.5 * diameter) + 2.0);
   if (region) {
     // A cut made by the splitter runs through the region, not along its edge.
     const cv::Mat1b& r = *region;
@@ -304,14 +311,17 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
     if (alive[i]) kept.push_back(std::move(pieces[i]));
   pieces = std::move(kept);
 }
-bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const {
-  std::vector<std::vector<cv::Point>> contours;
+bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image, Outline& outline) const {
+  auto& contours = outline.contours;
   cv::findContours(crop, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  outline.traced = true;
   if (contours.size() != 1) return false;
   const auto& contour = contours.front();
   const double area = cv::countNonZero(crop);
   const double r_area = std::sqrt(area / std::numbers::pi);
-  const auto edge = fruit_edge_points(contour, offset, image, 3.0 * std::sqrt(r_area) + 2.0);
+  outline.edge = fruit_edge_points(contour, offset, image, 3.0 * std::sqrt(r_area) + 2.0);
+  outline.has_edge = true;
+  const auto& edge = outline.edge;
   if (edge.size() < 8) return false;
   const auto c = fit_circle(edge);
   if (!c || c->r <= 0) return false;
@@ -392,12 +402,18 @@ void RegionSplitter::add_region(cv::Mat1b crop, cv::Point offset, cv::Size image
   // A region one circle explains is one fruit (possibly cut by a leaf):
   // splitting it at its distance-transform ridge would make fragments whose
   // small diameters put them far too deep.
-  if (config_.split_touching && !(config_.circle_fit && is_one_fruit(crop, offset, image))) {
+  // The crop's contours (and edge points) from is_one_fruit serve make_piece
+  // when the crop goes on whole.
+  Outline outline;
+  if (config_.split_touching && !(config_.circle_fit && is_one_fruit(crop, offset, image, outline))) {
     auto parts = split(crop, offset);
-    const cv::Mat1b* region = parts.size() > 1 ? &crop : nullptr;
-    for (auto& [part, at] : parts) peel(make_piece(std::move(part), at, image, region), image, out);
+    if (parts.size() == 1) {
+      peel(make_piece(std::move(parts.front().first), offset, image, nullptr, &outline), image, out);
+      return;
+    }
+    for (auto& [part, at] : parts) peel(make_piece(std::move(part), at, image, &crop), image, out);
   } else {
-    peel(make_piece(std::move(crop), offset, image, nullptr), image, out);
+    peel(make_piece(std::move(crop), offset, image, nullptr, &outline), image, out);
   }
 }
 
