@@ -238,11 +238,12 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
   const auto score = [&](const Piece& a, const Piece& b) -> double {
     constexpr double kNo = -1;
     if (!near(a, b) || a.edge.size() + b.edge.size() < 8) return kNo;
-    std::vector<cv::Point2d> edge, outer;
-    edge.reserve(a.edge.size() + b.edge.size());
+    // Both pieces' points in buffers kept across pairs (no allocation per pair).
+    thread_local std::vector<cv::Point2d> edge, outer;
+    edge.clear();
+    outer.clear();
     edge.insert(edge.end(), a.edge.begin(), a.edge.end());
     edge.insert(edge.end(), b.edge.begin(), b.edge.end());
-    outer.reserve(a.outer.size() + b.outer.size());
     outer.insert(outer.end(), a.outer.begin(), a.outer.end());
     outer.insert(outer.end(), b.outer.begin(), b.outer.end());
     // The fruit holds both pieces, and they show at least a radius of it.
