@@ -15,15 +15,20 @@ std::optional<Circle> fit_circle(const std::vector<cv::Point2d>& points, int ite
 
   // Kasa: x^2 + y^2 + a x + b y + c = 0, linear least squares through the
   // 3x3 normal equations (the data are centred, so they are well
-  // conditioned; no per-call allocation, the detector fits many circles).
-  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+  // conditioned). The sums are written out: the same products added in the
+  // same order as Eigen's `ata += row * row.transpose()` (so the same bits),
+  // without forming a 3x3 outer product per point; the symmetric entries
+  // once (x y and y x are the same double).
+  double sxx = 0, sxy = 0, sx = 0, syy = 0, sy = 0, s1 = 0, bx = 0, by = 0, b1 = 0;
   for (Eigen::Index i = 0; i < n; ++i) {
     const double x = points[i].x - mean.x, y = points[i].y - mean.y;
-    const Eigen::Vector3d row(x, y, 1.0);
-    ata += row * row.transpose();
-    atb -= row * (x * x + y * y);
+    const double z = x * x + y * y;
+    sxx += x * x, sxy += x * y, sx += x, syy += y * y, sy += y, s1 += 1.0;
+    bx -= x * z, by -= y * z, b1 -= z;
   }
+  Eigen::Matrix3d ata;
+  ata << sxx, sxy, sx, sxy, syy, sy, sx, sy, s1;
+  const Eigen::Vector3d atb(bx, by, b1);
   const Eigen::FullPivLU<Eigen::Matrix3d> lu(ata);
   if (lu.rank() < 3) return std::nullopt;
   const Eigen::Vector3d s = lu.solve(atb);
@@ -32,19 +37,22 @@ std::optional<Circle> fit_circle(const std::vector<cv::Point2d>& points, int ite
   if (!(r2 > 0)) return std::nullopt;
   double r = std::sqrt(r2);
 
-  // Gauss-Newton on residuals d_i = |p_i - c| - r.
+  // Gauss-Newton on residuals d_i = |p_i - c| - r; the Jacobian row is
+  // (-dx / d, -dy / d, -1), its products with -1 written as negations (exact).
   for (int it = 0; it < iterations; ++it) {
-    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    double j00 = 0, j01 = 0, j02 = 0, j11 = 0, j12 = 0, j22 = 0, r0 = 0, r1 = 0, r2s = 0;
     for (const auto& p : points) {
       const double dx = p.x - mean.x - cx, dy = p.y - mean.y - cy;
       const double dist = std::sqrt(dx * dx + dy * dy);
       if (dist < 1e-12) continue;
-      const Eigen::Vector3d j(-dx / dist, -dy / dist, -1.0);
+      const double ja = -dx / dist, jb = -dy / dist;
       const double res = dist - r;
-      jtj += j * j.transpose();
-      jtr += j * res;
+      j00 += ja * ja, j01 += ja * jb, j02 += -ja, j11 += jb * jb, j12 += -jb, j22 += 1.0;
+      r0 += ja * res, r1 += jb * res, r2s += -res;
     }
+    Eigen::Matrix3d jtj;
+    jtj << j00, j01, j02, j01, j11, j12, j02, j12, j22;
+    const Eigen::Vector3d jtr(r0, r1, r2s);
     const Eigen::Vector3d step = jtj.ldlt().solve(-jtr);
     if (!step.allFinite()) break;
     cx += step(0);

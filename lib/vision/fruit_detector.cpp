@@ -12,18 +12,10 @@
 
 namespace harvest::vision {
 
-namespace {
-
-cv::Mat disc_kernel(int radius) {
-  return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1));
-}
-
-}  // namespace
-
 FruitDetector::FruitDetector(const DetectorConfig& config, double fx, double fy)
     : config_(config), fx_(fx), fy_(fy), splitter_(config) {
-  if (config_.open_radius_px > 0) open_kernel_ = disc_kernel(config_.open_radius_px);
-  if (config_.close_radius_px > 0) close_kernel_ = disc_kernel(config_.close_radius_px);
+  if (config_.open_radius_px > 0) open_disc_ = StructuringElement::disc(config_.open_radius_px);
+  if (config_.close_radius_px > 0) close_disc_ = StructuringElement::disc(config_.close_radius_px);
   if (config_.mode == DetectorConfig::Mode::learned) learned_ = std::make_shared<LearnedDetector>(config_.learned);
 }
 
@@ -49,9 +41,7 @@ void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Frui
   f.diameter_y_px = box.height;
   const double perimeter = cv::arcLength(contour, true);
   f.roundness = perimeter > 0 ? std::min(1.0, 4 * std::numbers::pi * f.area_px / (perimeter * perimeter)) : 0.0;
-  std::vector<cv::Point> hull;
-  cv::convexHull(contour, hull);
-  const double hull_area = cv::contourArea(hull);
+  const double hull_area = convex_hull_area(contour);
   f.solidity = hull_area > 0 ? std::min(1.0, cv::contourArea(contour) / hull_area) : 1.0;
 
   const auto& edge = piece.edge;
@@ -92,6 +82,14 @@ void FruitDetector::analyse(const Piece& piece, cv::Size image, std::vector<Frui
   out.push_back(std::move(f));
 }
 
+const cv::Mat1b& FruitDetector::mask() const {
+  if (mask_stale_) {
+    bits_.unpack(mask_);
+    mask_stale_ = false;
+  }
+  return mask_;
+}
+
 Detections FruitDetector::detect(const cv::Mat3b& bgr) {
   Detections out;
   if (learned_) {
@@ -108,12 +106,14 @@ Detections FruitDetector::detect(const cv::Mat3b& bgr) {
 }
 
 void FruitDetector::detect_colour(const cv::Mat3b& bgr, Detections& out) {
-  mask_.create(bgr.size());
-  threshold_crcgcb(bgr.data, bgr.cols, bgr.rows, bgr.step, config_.thresholds, mask_.data, mask_.step);
-  if (!open_kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_OPEN, open_kernel_);
-  if (!close_kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_CLOSE, close_kernel_);
+  // Threshold, opening and closing on the packed mask: the pixels
+  // cv::morphologyEx gives on the byte mask (bitmask.hpp), a tenth of the work.
+  threshold_crcgcb(bgr, config_.thresholds, bits_);
+  if (!open_disc_.empty()) morphology_.open(bits_, open_disc_);
+  if (!close_disc_.empty()) morphology_.close(bits_, close_disc_);
+  mask_stale_ = true;
 
-  const auto& regions = labeler_.label(mask_, config_.min_area_px);
+  const auto& regions = labeler_.label(bits_, config_.min_area_px);
   // Merging needs every piece first; otherwise each region is done at once.
   const bool merging = config_.merge_fragments && config_.circle_fit;
   std::vector<Piece> pieces;

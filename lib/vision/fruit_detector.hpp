@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "vision/bitmask.hpp"
 #include "vision/detector_config.hpp"
 #include "vision/region_split.hpp"
 #include "vision/segmentation.hpp"
@@ -61,8 +62,9 @@ class FruitDetector {
 
   Detections detect(const cv::Mat3b& bgr);
 
-  // The colour mask of the last image after clean-up (for overlays and tests).
-  const cv::Mat1b& mask() const { return mask_; }
+  // The colour mask of the last image after clean-up (for overlays and tests;
+  // unpacked from the detector's packed mask when asked for).
+  const cv::Mat1b& mask() const;
   const DetectorConfig& config() const { return config_; }
 
  private:
@@ -72,8 +74,11 @@ class FruitDetector {
 
   DetectorConfig config_;
   double fx_, fy_;
-  cv::Mat1b mask_;
-  cv::Mat open_kernel_, close_kernel_;
+  BitMask bits_;  // the colour mask, cleaned up
+  BinaryMorphology morphology_;
+  StructuringElement open_disc_, close_disc_;
+  mutable cv::Mat1b mask_;  // bits_ unpacked, by mask()
+  mutable bool mask_stale_ = false;
   RegionLabeler labeler_;
   RegionSplitter splitter_;
   std::shared_ptr<LearnedDetector> learned_;  // mode learned only

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <limits>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
@@ -75,6 +76,49 @@ std::vector<cv::Point2d> fruit_edge_points(const std::vector<cv::Point>& contour
   return edge;
 }
 
+double convex_hull_area(const std::vector<cv::Point>& points) {
+  if (points.size() < 3) return 0.0;
+  int x0 = points[0].x, x1 = points[0].x;
+  for (const cv::Point& p : points) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+  // Per column its lowest and highest y (columns without points: lo > hi).
+  thread_local std::vector<int> lo, hi;
+  const auto columns = static_cast<std::size_t>(x1 - x0 + 1);
+  lo.assign(columns, std::numeric_limits<int>::max());
+  hi.assign(columns, std::numeric_limits<int>::min());
+  for (const cv::Point& p : points) {
+    const auto c = static_cast<std::size_t>(p.x - x0);
+    lo[c] = std::min(lo[c], p.y);
+    hi[c] = std::max(hi[c], p.y);
+  }
+  // Andrew's monotone chain over the candidates in (x, y) order.
+  thread_local std::vector<cv::Point> chain;
+  chain.clear();
+  const auto cross = [](cv::Point o, cv::Point a, cv::Point b) {
+    return static_cast<int64_t>(a.x - o.x) * (b.y - o.y) - static_cast<int64_t>(a.y - o.y) * (b.x - o.x);
+  };
+  const auto push = [&](cv::Point p, std::size_t floor) {
+    while (chain.size() >= floor + 2 && cross(chain[chain.size() - 2], chain.back(), p) <= 0) chain.pop_back();
+    chain.push_back(p);
+  };
+  for (std::size_t c = 0; c < columns; ++c) {  // lower hull, left to right
+    if (lo[c] > hi[c]) continue;
+    const int x = x0 + static_cast<int>(c);
+    push({x, lo[c]}, 0);
+    if (hi[c] != lo[c]) push({x, hi[c]}, 0);
+  }
+  const std::size_t lower = chain.size() - 1;
+  for (std::size_t c = columns; c-- > 0;) {  // upper hull, right to left
+    if (lo[c] > hi[c]) continue;
+    const int x = x0 + static_cast<int>(c);
+    if (hi[c] != lo[c]) push({x, hi[c]}, lower);
+    push({x, lo[c]}, lower);
+  }
+  int64_t twice = 0;  // the shoelace sum, exact
+  for (std::size_t i = 0; i + 1 < chain.size(); ++i)
+    twice += static_cast<int64_t>(chain[i].x) * chain[i + 1].y - static_cast<int64_t>(chain[i + 1].x) * chain[i].y;
+  return 0.5 * std::fabs(static_cast<double>(twice));
+}
+
 // Share of directions around (cx, cy) holding an edge point. The outline of
 // a digital disc has about 5.7 r points, so sectors of two points' width
 // (at most 72) are all hit when the whole outline is visible.
@@ -115,14 +159,22 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
   if (n < 8) return std::nullopt;
   // Candidates are scored on at most about 160 points of each set (a large
   // fruit near the camera has thousands of outline points).
-  const auto thin = [](const std::vector<cv::Point2d>& points) {
+  const auto thin_into = [](const std::vector<cv::Point2d>& points, std::vector<cv::Point2d>& out) {
     const std::size_t stride = points.size() / 160 + 1;
-    std::vector<cv::Point2d> out;
+    out.clear();
     for (std::size_t i = 0; i < points.size(); i += stride) out.push_back(points[i]);
+  };
+  const auto thin = [&](const std::vector<cv::Point2d>& points) {
+    std::vector<cv::Point2d> out;
+    thin_into(points, out);
     return out;
   };
-  const std::vector<cv::Point2d> scored = n > 160 ? thin(edge) : edge;
-  const std::vector<cv::Point2d> held = outline.size() > 160 ? thin(outline) : outline;
+  // The sets themselves when they are small enough, not copies of them.
+  thread_local std::vector<cv::Point2d> thinned_edge, thinned_outline;
+  if (n > 160) thin_into(edge, thinned_edge);
+  if (outline.size() > 160) thin_into(outline, thinned_outline);
+  const std::vector<cv::Point2d>& scored = n > 160 ? thinned_edge : edge;
+  const std::vector<cv::Point2d>& held = outline.size() > 160 ? thinned_outline : outline;
   const std::size_t min_on = std::max<std::size_t>(3, 8 * scored.size() / n);
   const std::size_t allowed_out = held.size() * 3 / 100 + 1;
   const auto on_count = [&](const Circle& c, const std::vector<cv::Point2d>& points) {
@@ -136,9 +188,19 @@ std::optional<OutlineFit> fit_outline_circle(const std::vector<cv::Point2d>& edg
     return true;
   };
   std::optional<OutlineFit> best;  // .on counts the scored points until the refit
+  // A candidate needs more scored points on it than the best so far: the
+  // count stops as soon as the points left cannot get it there (the same
+  // choice as counting them all).
   const auto consider = [&](const Circle& c) {
-    const std::size_t on = on_count(c, scored);
-    if (on < min_on || (best && on <= best->on) || !contains(c)) return;
+    if (!(c.r >= r_min && c.r <= r_max)) return;  // counts no points: below min_on
+    const std::size_t needed = std::max(min_on, best ? best->on + 1 : std::size_t{0});
+    const OnCircle is_on(c);
+    std::size_t on = 0;
+    for (std::size_t i = 0; i < scored.size(); ++i) {
+      if (on + (scored.size() - i) < needed) return;
+      on += is_on(scored[i]);
+    }
+    if (on < needed || !contains(c)) return;
     best = OutlineFit{c, on};
   };
   uint32_t state = 0x9e3779b9u ^ static_cast<uint32_t>(n);

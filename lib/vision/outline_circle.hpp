@@ -21,6 +21,12 @@ namespace harvest::vision {
 std::vector<cv::Point2d> fruit_edge_points(const std::vector<cv::Point>& contour, cv::Point offset, cv::Size image,
                                            double max_edge_px);
 
+// The area of the points' convex hull, exactly cv::contourArea(cv::convexHull(points))
+// (integer points: both are exact), in linear time: the hull of a point set
+// on a grid is that of each column's top and bottom point, already in x
+// order, so the monotone chain needs no sort.
+double convex_hull_area(const std::vector<cv::Point>& points);
+
 // Share (0..1) of directions around (cx, cy) holding one of `points`, for an
 // outline of `outline_points` points.
 double angular_coverage(const std::vector<cv::Point2d>& points, std::size_t outline_points, double cx, double cy);

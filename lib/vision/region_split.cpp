@@ -1,11 +1,14 @@
 #include "vision/region_split.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/bitmask.hpp"
 #include "vision/circle_fit.hpp"
 #include "vision/outline_circle.hpp"
 #include "vision/segmentation.hpp"
@@ -14,13 +17,6 @@ namespace harvest::vision {
 
 namespace {
 
-// Holes are background pixels not reachable from the crop border (the crop
-// has a one-pixel empty frame, so flooding from (0, 0) reaches all outside).
-void fill_holes(cv::Mat1b& crop) {
-  cv::Mat1b outside = crop.clone();
-  cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
-  crop |= ~outside;
-}
 // Fragment merging (merge_fragments), tuned on the simulated tree
 // (tools: harvest-vision-eval): a fragment with an outer edge has at least
 // this share of its edge points on the merged circle,
@@ -79,23 +75,67 @@ double sky_share(const cv::Mat3b& bgr, const Circle& c, double cb_min) {
 
 }  // namespace
 
-MaskMoments mask_moments(const cv::Mat1b& mask) {
+// 64 pixels at a time as bits: their count and the sum of their x by
+// popcounts (bit_index_sum), exact integers as before, without a branch per
+// pixel to mispredict along the mask's edges.
+// Holes are the background's 4-connected parts other than the one holding
+// (0, 0) (the crop has a one-pixel empty frame, so that one is all outside):
+// the background labelled by runs on its packed bits, and every run of the
+// other parts painted in. Flooding from (0, 0) (cv::floodFill, 4-connected)
+// and adding what it did not reach gave the same pixels and cost a copy of
+// the crop, the fill and two passes over it.
+void fill_holes(cv::Mat1b& crop) {
+  if (crop.empty()) return;
+  if (crop(0, 0) != 0) {  // no empty frame: flood what is connected to (0, 0), as before
+    cv::Mat1b outside = crop.clone();
+    cv::floodFill(outside, cv::Point(0, 0), cv::Scalar(255));
+    crop |= ~outside;
+    return;
+  }
+  thread_local BitMask background;
+  thread_local RegionLabeler labeler;
+  background.create(crop.cols, crop.rows);
+  for (int y = 0; y < crop.rows; ++y) {
+    const uchar* row = crop.ptr<uchar>(y);
+    uint64_t* bits = background.row(y);
+    for (int x = 0; x < crop.cols; x += 64) {
+      const int n = std::min(64, crop.cols - x);
+      bits[x / 64] = ~pack_bytes(row + x, n) & (n == 64 ? ~uint64_t{0} : (uint64_t{1} << n) - 1);
+    }
+  }
+  labeler.label(background, 0);  // region 0 starts at (0, 0): the outside
+  for (const Run& r : labeler.runs())
+    if (r.label > 0) std::memset(crop.ptr<uchar>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("popcnt", "default")))  // the popcounts in one instruction where the CPU has it
+#endif
+MaskMoments
+mask_moments(const cv::Mat1b& mask) {
   int64_t m00 = 0, m10 = 0, m01 = 0;
   for (int y = 0; y < mask.rows; ++y) {
     const uchar* row = mask.ptr<uchar>(y);
     int64_t count = 0, sum_x = 0;
-    for (int x = 0; x < mask.cols; ++x)
-      if (row[x]) ++count, sum_x += x;
+    for (int x = 0; x < mask.cols; x += 64) {
+      const uint64_t bits = pack_bytes(row + x, std::min(64, mask.cols - x));
+      const int64_t n = std::popcount(bits);
+      count += n, sum_x += n * x + bit_index_sum(bits);
+    }
     m00 += count, m10 += sum_x, m01 += count * y;
   }
   return {static_cast<double>(m00), static_cast<double>(m10), static_cast<double>(m01)};
 }
 
-Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region) const {
+Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region,
+                                 Outline* known) const {
   Piece p;
   p.offset = offset;
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (known && known->traced)
+    contours = std::move(known->contours);
+  else
+    cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   p.mask = std::move(mask);
   if (contours.empty()) return p;
   p.contour = *std::max_element(contours.begin(), contours.end(),
@@ -111,7 +151,10 @@ Piece RegionSplitter::make_piece(cv::Mat1b mask, cv::Point offset, cv::Size imag
   // The flat runs of a digital circle's outline are about 2 sqrt(r) long;
   // a leaf's straight border across the fruit is far longer.
   const double diameter = 2.0 * std::sqrt(p.area / std::numbers::pi);
-  p.edge = fruit_edge_points(p.contour, offset, image, 3.0 * std::sqrt(0.5 * diameter) + 2.0);
+  if (known && known->has_edge && contours.size() == 1)
+    p.edge = std::move(known->edge);  // the same contour, the same maximum edge length
+  else
+    p.edge = fruit_edge_points(p.contour, offset, image, 3.0 * std::sqrt(0.5 * diameter) + 2.0);
   if (region) {
     // A cut made by the splitter runs through the region, not along its edge.
     const cv::Mat1b& r = *region;
@@ -195,11 +238,12 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
   const auto score = [&](const Piece& a, const Piece& b) -> double {
     constexpr double kNo = -1;
     if (!near(a, b) || a.edge.size() + b.edge.size() < 8) return kNo;
-    std::vector<cv::Point2d> edge, outer;
-    edge.reserve(a.edge.size() + b.edge.size());
+    // Both pieces' points in buffers kept across pairs (no allocation per pair).
+    thread_local std::vector<cv::Point2d> edge, outer;
+    edge.clear();
+    outer.clear();
     edge.insert(edge.end(), a.edge.begin(), a.edge.end());
     edge.insert(edge.end(), b.edge.begin(), b.edge.end());
-    outer.reserve(a.outer.size() + b.outer.size());
     outer.insert(outer.end(), a.outer.begin(), a.outer.end());
     outer.insert(outer.end(), b.outer.begin(), b.outer.end());
     // The fruit holds both pieces, and they show at least a radius of it.
@@ -244,7 +288,7 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
       m.mask(to) |= p->mask(from);
     }
     std::vector<std::vector<cv::Point>> contours;
-    cv::findContours(m.mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    cv::findContours(m.mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     m.contour = *std::max_element(contours.begin(), contours.end(),
                                   [](const auto& x, const auto& y) { return x.size() < y.size(); });
     m.edge = a.edge;
@@ -268,14 +312,17 @@ void RegionSplitter::merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b
     if (alive[i]) kept.push_back(std::move(pieces[i]));
   pieces = std::move(kept);
 }
-bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const {
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(crop.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+bool RegionSplitter::is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image, Outline& outline) const {
+  auto& contours = outline.contours;
+  cv::findContours(crop, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  outline.traced = true;
   if (contours.size() != 1) return false;
   const auto& contour = contours.front();
   const double area = cv::countNonZero(crop);
   const double r_area = std::sqrt(area / std::numbers::pi);
-  const auto edge = fruit_edge_points(contour, offset, image, 3.0 * std::sqrt(r_area) + 2.0);
+  outline.edge = fruit_edge_points(contour, offset, image, 3.0 * std::sqrt(r_area) + 2.0);
+  outline.has_edge = true;
+  const auto& edge = outline.edge;
   if (edge.size() < 8) return false;
   const auto c = fit_circle(edge);
   if (!c || c->r <= 0) return false;
@@ -356,12 +403,18 @@ void RegionSplitter::add_region(cv::Mat1b crop, cv::Point offset, cv::Size image
   // A region one circle explains is one fruit (possibly cut by a leaf):
   // splitting it at its distance-transform ridge would make fragments whose
   // small diameters put them far too deep.
-  if (config_.split_touching && !(config_.circle_fit && is_one_fruit(crop, offset, image))) {
+  // The crop's contours (and edge points) from is_one_fruit serve make_piece
+  // when the crop goes on whole.
+  Outline outline;
+  if (config_.split_touching && !(config_.circle_fit && is_one_fruit(crop, offset, image, outline))) {
     auto parts = split(crop, offset);
-    const cv::Mat1b* region = parts.size() > 1 ? &crop : nullptr;
-    for (auto& [part, at] : parts) peel(make_piece(std::move(part), at, image, region), image, out);
+    if (parts.size() == 1) {
+      peel(make_piece(std::move(parts.front().first), offset, image, nullptr, &outline), image, out);
+      return;
+    }
+    for (auto& [part, at] : parts) peel(make_piece(std::move(part), at, image, &crop), image, out);
   } else {
-    peel(make_piece(std::move(crop), offset, image, nullptr), image, out);
+    peel(make_piece(std::move(crop), offset, image, nullptr, &outline), image, out);
   }
 }
 

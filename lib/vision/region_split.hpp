@@ -23,6 +23,10 @@ struct MaskMoments {
 };
 MaskMoments mask_moments(const cv::Mat1b& mask);
 
+// Fills the holes of a region's crop in place: background pixels not
+// 4-connected to (0, 0), as cv::floodFill from (0, 0) leaves them.
+void fill_holes(cv::Mat1b& crop);
+
 // A piece of the mask that may be one fruit: a region, a part of a split
 // region, or fragments merged because they lie on one circle.
 struct Piece {
@@ -51,11 +55,22 @@ class RegionSplitter {
   void merge_fragments(std::vector<Piece>& pieces, const cv::Mat3b& bgr) const;
 
  private:
-  Piece make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region) const;
+  // What is_one_fruit found out about a crop that make_piece needs again for
+  // the same crop: its outer contours and, with one contour, its fruit-edge
+  // points (the same maximum edge length: both take it from the area).
+  struct Outline {
+    bool traced = false;
+    std::vector<std::vector<cv::Point>> contours;
+    bool has_edge = false;
+    std::vector<cv::Point2d> edge;
+  };
+  // `known`: is_one_fruit's findings for this very mask (and no region).
+  Piece make_piece(cv::Mat1b mask, cv::Point offset, cv::Size image, const cv::Mat1b* region,
+                   Outline* known = nullptr) const;
   void peel(Piece piece, cv::Size image, std::vector<Piece>& out) const;
   std::vector<std::pair<cv::Mat1b, cv::Point>> split(const cv::Mat1b& crop, cv::Point offset) const;
   // The region's visible outline fits one circle that covers it (a fruit, perhaps cut by a leaf).
-  bool is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image) const;
+  bool is_one_fruit(const cv::Mat1b& crop, cv::Point offset, cv::Size image, Outline& outline) const;
 
   DetectorConfig config_;
 };

@@ -85,6 +85,9 @@ __attribute__((target("avx2"))) inline __m256i inside(__m256i rg, __m256i b0, __
 // channels are gathered with pshufb, widened to 16 bits and paired, so each
 // colour difference is two pmaddwd (R, G and B, 0 pairs) in exact 32-bit
 // integers; the unsigned range test is min_epu32 + cmpeq.
+// kBits: `m` is the row of a packed mask (words as bytes, little-endian), each
+// block of 16 pixels two bytes of it (pmovmskb), the tail bits set one by one.
+template <bool kBits>
 __attribute__((target("avx2"))) void threshold_row_avx2(const uint8_t* p, uint8_t* m, int width,
                                                         const IntThresholds& it) {
   static const __m128i kB0 = gather_mask(0, 0), kB1 = gather_mask(0, 1), kB2 = gather_mask(0, 2);
@@ -114,18 +117,38 @@ __attribute__((target("avx2"))) void threshold_row_avx2(const uint8_t* p, uint8_
     // In-lane interleave: "lo" holds pixels 0-3 and 8-11, "hi" 4-7 and 12-15.
     const __m256i rg_lo = _mm256_unpacklo_epi16(r16, g16), rg_hi = _mm256_unpackhi_epi16(r16, g16);
     const __m256i b_lo = _mm256_unpacklo_epi16(b16, zero), b_hi = _mm256_unpackhi_epi16(b16, zero);
-    const __m256i in_lo = _mm256_and_si256(
-        _mm256_and_si256(inside(rg_lo, b_lo, rg_cr, b_cr, lo0, w0), inside(rg_lo, b_lo, rg_cg, b_cg, lo1, w1)),
-        inside(rg_lo, b_lo, rg_cb, b_cb, lo2, w2));
-    const __m256i in_hi = _mm256_and_si256(
-        _mm256_and_si256(inside(rg_hi, b_hi, rg_cr, b_cr, lo0, w0), inside(rg_hi, b_hi, rg_cg, b_cg, lo1, w1)),
-        inside(rg_hi, b_hi, rg_cb, b_cb, lo2, w2));
+    // Cr first: leaves, bark and sky fail it, and a block where every pixel
+    // does is outside whatever Cg and Cb say (the mask is already clear
+    // there when packed; the byte mask gets its zeros).
+    const __m256i cr_lo = inside(rg_lo, b_lo, rg_cr, b_cr, lo0, w0), cr_hi = inside(rg_hi, b_hi, rg_cr, b_cr, lo0, w0);
+    if (_mm256_testz_si256(_mm256_or_si256(cr_lo, cr_hi), _mm256_or_si256(cr_lo, cr_hi))) {
+      if constexpr (!kBits) _mm_storeu_si128(reinterpret_cast<__m128i*>(m + x), _mm_setzero_si128());
+      continue;
+    }
+    const __m256i in_lo = _mm256_and_si256(_mm256_and_si256(cr_lo, inside(rg_lo, b_lo, rg_cg, b_cg, lo1, w1)),
+                                           inside(rg_lo, b_lo, rg_cb, b_cb, lo2, w2));
+    const __m256i in_hi = _mm256_and_si256(_mm256_and_si256(cr_hi, inside(rg_hi, b_hi, rg_cg, b_cg, lo1, w1)),
+                                           inside(rg_hi, b_hi, rg_cb, b_cb, lo2, w2));
     // packs restores pixel order within each lane: lane 0 = 0-7, lane 1 = 8-15.
     const __m256i in16 = _mm256_packs_epi32(in_lo, in_hi);
     const __m128i in8 = _mm_packs_epi16(_mm256_castsi256_si128(in16), _mm256_extracti128_si256(in16, 1));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(m + x), in8);
+    if constexpr (kBits) {
+      const auto bits = static_cast<uint16_t>(_mm_movemask_epi8(in8));
+      std::memcpy(m + x / 8, &bits, 2);
+    } else {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(m + x), in8);
+    }
   }
-  if (x < width) threshold_row(p + 3 * x, m + x, width - x, it);
+  if (x < width) {
+    if constexpr (kBits) {
+      uint8_t tail[16];
+      threshold_row(p + 3 * x, tail, width - x, it);
+      for (int i = 0; x + i < width; ++i)
+        if (tail[i]) m[(x + i) / 8] |= static_cast<uint8_t>(1U << ((x + i) % 8));
+    } else {
+      threshold_row(p + 3 * x, m + x, width - x, it);
+    }
+  }
 }
 
 bool have_avx2() {
@@ -134,24 +157,31 @@ bool have_avx2() {
 }
 #endif
 
+// The AVX2 kernel when it is allowed and the CPU has it.
+bool use_avx2(bool allow_simd) {
+#ifdef HARVEST_HAVE_AVX2_KERNEL
+  return allow_simd && have_avx2();
+#else
+  (void)allow_simd;
+  return false;
+#endif
+}
+
+// An empty range (lo > hi) rejects everything.
+bool empty_range(const IntThresholds& it) { return it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2]; }
+
 void threshold_image(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
                      uint8_t* mask, std::size_t mask_stride, bool allow_simd) {
   const IntThresholds it = IntThresholds::from(t);
-  // An empty range (lo > hi) must reject everything.
-  const bool empty = it.lo[0] > it.hi[0] || it.lo[1] > it.hi[1] || it.lo[2] > it.hi[2];
-#ifdef HARVEST_HAVE_AVX2_KERNEL
-  const bool simd = allow_simd && have_avx2();
-#else
-  const bool simd = false;
-  (void)allow_simd;
-#endif
+  const bool empty = empty_range(it);
+  [[maybe_unused]] const bool simd = use_avx2(allow_simd);
   for (int y = 0; y < height; ++y) {
     uint8_t* m = mask + static_cast<std::size_t>(y) * mask_stride;
     const uint8_t* p = bgr + static_cast<std::size_t>(y) * stride;
     if (empty) std::memset(m, 0, static_cast<std::size_t>(width));
 #ifdef HARVEST_HAVE_AVX2_KERNEL
     else if (simd)
-      threshold_row_avx2(p, m, width, it);
+      threshold_row_avx2<false>(p, m, width, it);
 #endif
     else
       threshold_row(p, m, width, it);
@@ -169,22 +199,48 @@ void threshold_crcgcb_portable(const uint8_t* bgr, int width, int height, std::s
   threshold_image(bgr, width, height, stride, t, mask, mask_stride, false);
 }
 
+namespace {
+void threshold_bits(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask, bool allow_simd) {
+  mask.create(bgr.cols, bgr.rows);
+  const IntThresholds it = IntThresholds::from(t);
+  if (empty_range(it)) return;  // nothing inside
+  [[maybe_unused]] const bool simd = use_avx2(allow_simd);
+  const int width = bgr.cols;
+  for (int y = 0; y < bgr.rows; ++y) {
+    const uint8_t* p = bgr.ptr<uint8_t>(y);
+    uint64_t* words = mask.row(y);
+#ifdef HARVEST_HAVE_AVX2_KERNEL
+    if (simd) {
+      threshold_row_avx2<true>(p, reinterpret_cast<uint8_t*>(words), width, it);
+      continue;
+    }
+#endif
+    // 64 pixels at a time through the byte kernel, then packed.
+    uint8_t bytes[64];
+    for (int x = 0; x < width; x += 64) {
+      const int n = std::min(64, width - x);
+      threshold_row(p + 3 * x, bytes, n, it);
+      uint64_t bits = 0;
+      for (int i = 0; i < n; ++i) bits |= static_cast<uint64_t>(bytes[i] & 1U) << i;
+      words[x / 64] = bits;
+    }
+  }
+}
+}  // namespace
+
+void threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask) {
+  threshold_bits(bgr, t, mask, true);
+}
+
+void threshold_crcgcb_portable(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask) {
+  threshold_bits(bgr, t, mask, false);
+}
+
 cv::Mat1b threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t) {
   cv::Mat1b mask(bgr.size());
   threshold_crcgcb(bgr.data, bgr.cols, bgr.rows, bgr.step, t, mask.data, mask.step);
   return mask;
 }
-
-namespace {
-// Bit i set iff byte i of the (little-endian) word is nonzero. The first line
-// sets each byte's top bit iff the byte is nonzero without carries between
-// bytes; the multiply gathers the eight top bits into the top byte.
-inline uint64_t nonzero_bits(uint64_t w) {
-  const uint64_t t = (((w & 0x7F7F7F7F7F7F7F7FULL) + 0x7F7F7F7F7F7F7F7FULL) | w) & 0x8080808080808080ULL;
-  return ((t >> 7) * 0x0102040810204080ULL) >> 56;
-}
-static_assert(std::endian::native == std::endian::little, "nonzero_bits assumes a little-endian machine");
-}  // namespace
 
 int32_t RegionLabeler::find(int32_t i) {
   while (parent_[i] != i) {
@@ -194,14 +250,13 @@ int32_t RegionLabeler::find(int32_t i) {
   return i;
 }
 
-const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t min_area) {
+template <typename RowBits>
+const std::vector<Region>& RegionLabeler::label_rows(int width, int height, int64_t min_area, RowBits row_bits) {
   runs_.clear();
   parent_.clear();
   regions_.clear();
-  const int width = mask.cols;
   int32_t prev_begin = 0, prev_end = 0;
-  for (int y = 0; y < mask.rows; ++y) {
-    const uint8_t* row = mask.ptr<uint8_t>(y);
+  for (int y = 0; y < height; ++y) {
     const auto cur_begin = static_cast<int32_t>(runs_.size());
     // Runs are found 64 pixels at a time on a bit mask of the row (bit i =
     // pixel i nonzero), so the work is per run, not per pixel, and there is no
@@ -227,21 +282,10 @@ const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t m
         bits &= ~uint64_t{0} << e;
       }
     };
-    int x = 0;
-    for (; x + 64 <= width; x += 64) {
-      uint64_t bits = 0;
-      for (int k = 0; k < 8; ++k) {
-        uint64_t w;
-        std::memcpy(&w, row + x + 8 * k, 8);
-        bits |= nonzero_bits(w) << (8 * k);
-      }
-      if (bits != 0 || in_run) scan(bits, x, ~uint64_t{0});
-    }
-    if (x < width) {
-      const int n = width - x;
-      uint64_t bits = 0;
-      for (int i = 0; i < n; ++i) bits |= static_cast<uint64_t>(row[x + i] != 0) << i;
-      scan(bits, x, (uint64_t{1} << n) - 1);
+    for (int x = 0; x < width; x += 64) {
+      const int n = std::min(64, width - x);
+      const uint64_t bits = row_bits(y, x, n);
+      if (bits != 0 || in_run) scan(bits, x, n == 64 ? ~uint64_t{0} : (uint64_t{1} << n) - 1);
     }
     if (in_run) {
       const auto id = static_cast<int32_t>(runs_.size());
@@ -317,6 +361,24 @@ const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t m
     }
   }
   return regions_;
+}
+
+const std::vector<Region>& RegionLabeler::label(const cv::Mat1b& mask, int64_t min_area) {
+  return label_rows(mask.cols, mask.rows, min_area, [&mask](int y, int x, int n) {
+    const uint8_t* row = mask.ptr<uint8_t>(y) + x;
+    uint64_t bits = 0;
+    if (n == 64) {
+      bits = pack64(row);
+    } else {
+      for (int i = 0; i < n; ++i) bits |= static_cast<uint64_t>(row[i] != 0) << i;
+    }
+    return bits;
+  });
+}
+
+const std::vector<Region>& RegionLabeler::label(const BitMask& mask, int64_t min_area) {
+  return label_rows(mask.width(), mask.height(), min_area,
+                    [&mask](int y, int x, int) { return mask.row(y)[static_cast<std::size_t>(x) >> 6]; });
 }
 
 cv::Mat1b RegionLabeler::region_mask(std::size_t index, int pad) const {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "config/key.hpp"
+#include "vision/bitmask.hpp"
 
 namespace harvest::vision {
 
@@ -27,7 +28,8 @@ namespace harvest::vision {
 // (appendix B.1, "1/15/04").
 namespace threshold_keys {
 using config::Key;
-inline constexpr Key<double> cr_min{"cr_min", 22, {-1000, 1000}, "", "lowest Cr of a fruit pixel (thesis appendix B.1)"};
+inline constexpr Key<double> cr_min{
+    "cr_min", 22, {-1000, 1000}, "", "lowest Cr of a fruit pixel (thesis appendix B.1)"};
 inline constexpr Key<double> cr_max{"cr_max", 90, {-1000, 1000}, "", "highest Cr (at least cr_min)"};
 inline constexpr Key<double> cg_min{"cg_min", -25, {-1000, 1000}, "", "lowest Cg"};
 inline constexpr Key<double> cg_max{"cg_max", 25, {-1000, 1000}, "", "highest Cg (at least cg_min)"};
@@ -57,6 +59,11 @@ cv::Mat1b threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t);
 void threshold_crcgcb_portable(const uint8_t* bgr, int width, int height, std::size_t stride, const ColorThresholds& t,
                                uint8_t* mask, std::size_t mask_stride);
 
+// The same test straight into a packed mask (bit set inside), AVX2 when the
+// CPU has it, and the portable form of it.
+void threshold_crcgcb(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask);
+void threshold_crcgcb_portable(const cv::Mat3b& bgr, const ColorThresholds& t, BitMask& mask);
+
 // The thesis colour-difference values of one pixel (for tests and tools).
 struct CrCgCb {
   double cr, cg, cb;
@@ -82,6 +89,8 @@ class RegionLabeler {
   // min_area are dropped (the thesis keeps count > MinRegionArea). Regions
   // are ordered by their first pixel in raster order.
   const std::vector<Region>& label(const cv::Mat1b& mask, int64_t min_area);
+  // The same from a packed mask (no bytes to pack first).
+  const std::vector<Region>& label(const BitMask& mask, int64_t min_area);
 
   const std::vector<Region>& regions() const { return regions_; }
   const std::vector<Run>& runs() const { return runs_; }
@@ -92,6 +101,9 @@ class RegionLabeler {
 
  private:
   int32_t find(int32_t i);
+  // label()'s body; row_bits(y, base) gives the 64 pixels from x = base of row y as bits.
+  template <typename RowBits>
+  const std::vector<Region>& label_rows(int width, int height, int64_t min_area, RowBits row_bits);
   std::vector<Run> runs_;
   std::vector<int32_t> parent_;
   std::vector<Region> regions_;

@@ -105,22 +105,11 @@ TEST(ColorThreshold, SimdKernelEqualsPortableKernel) {
   // Odd widths exercise the scalar tail after the 16-pixel blocks; random
   // thresholds (including empty and extreme ranges) exercise the bounds.
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> bound(-300, 300);
   for (const int width : {640, 333, 17, 15, 1}) {
     cv::Mat3b img(37, width);
     cv::randu(img, cv::Scalar::all(0), cv::Scalar::all(256));
     for (int k = 0; k < 40; ++k) {
-      ColorThresholds t;
-      if (k > 0) {
-        double a = bound(rng), b = bound(rng), c = bound(rng), d = bound(rng), e = bound(rng), f = bound(rng);
-        if (k % 7 != 0) {  // mostly proper ranges, sometimes empty ones
-          if (a > b) std::swap(a, b);
-          if (c > d) std::swap(c, d);
-          if (e > f) std::swap(e, f);
-        }
-        t = {a, b, c, d, e, f};
-      }
-      if (k == 39) t = {-1e7, 1e7, -1e7, 1e7, -1e7, 1e7};  // clamped to +-1e6: everything inside
+      const ColorThresholds t = test::random_thresholds(rng, k, 39);
       const cv::Mat1b fast = threshold_crcgcb(img, t);
       cv::Mat1b portable(img.size());
       threshold_crcgcb_portable(img.data, img.cols, img.rows, img.step, t, portable.data, portable.step);
@@ -171,7 +160,8 @@ TEST(RegionLabeler, AgreesWithOpenCvConnectedComponents) {
 
 TEST(MaskMoments, EqualOpenCvMomentsExactly) {
   std::mt19937 rng(7);
-  for (const cv::Size size : {cv::Size(1, 1), cv::Size(17, 5), cv::Size(320, 240), cv::Size(333, 257)}) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(17, 5), cv::Size(63, 4), cv::Size(64, 3), cv::Size(65, 6),
+                              cv::Size(129, 2), cv::Size(320, 240), cv::Size(333, 257)}) {
     cv::Mat1b mask(size);
     cv::randu(mask, 0, 2);
     mask = mask * 200;  // nonzero counts as 1, whatever its value

@@ -7,10 +7,29 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <utility>
 
 #include "geometry/camera_model.hpp"
+#include "vision/segmentation.hpp"
 
 namespace harvest::vision::test {
+
+// Threshold boxes for comparing threshold kernels: case 0 the thesis box,
+// then random bounds in [-300, 300] (every seventh case possibly empty
+// ranges), and case `last` everything (+-1e7, clamped to +-1e6) inside.
+inline ColorThresholds random_thresholds(std::mt19937& rng, int k, int last) {
+  if (k == last) return {-1e7, 1e7, -1e7, 1e7, -1e7, 1e7};
+  if (k == 0) return {};
+  std::uniform_real_distribution<double> bound(-300, 300);
+  double a = bound(rng), b = bound(rng), c = bound(rng), d = bound(rng), e = bound(rng), f = bound(rng);
+  if (k % 7 != 0) {  // mostly proper ranges, sometimes empty ones
+    if (a > b) std::swap(a, b);
+    if (c > d) std::swap(c, d);
+    if (e > f) std::swap(e, f);
+  }
+  return {a, b, c, d, e, f};
+}
 
 inline const cv::Vec3b kOrange(30, 140, 230);  // BGR; Cr 80, Cg -14, Cb -124: inside the thesis box
 inline const cv::Vec3b kLeaf(40, 120, 60);     // BGR; Cr -32: outside
