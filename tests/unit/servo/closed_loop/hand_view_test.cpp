@@ -164,12 +164,15 @@ TEST(ClosedLoop, RaysThatDoNotMeetGiveNoPosition) {
 // delay. Seen from the newest pose (image_pose_gap 0) the same run closes
 // 9 mm beside the fruit's centre and takes 1.2 s longer.
 TEST(ClosedLoop, ALateImageIsSeenFromWhereTheCameraTookIt) {
-  Loop prompt(experiment_one());
+  ServoConfig cfg = test_config();
+  cfg.image_pose_gap = 0.1;    // off by default (docs/servo-controller.md)
+  cfg.sway.hold_standoff = 0;  // the delay's sideways error can look like a sway: no holds, times compared
+  Loop prompt(experiment_one(), cfg);
   prompt.start();
   ASSERT_TRUE(prompt.run_until_state(State::kDone, 60.0));
   WorldSpec spec = experiment_one();
   spec.hand_latency_s = 0.3;
-  Loop late(spec);
+  Loop late(spec, cfg);
   late.start();
   ASSERT_TRUE(late.run_until_state(State::kDone, 60.0)) << late.ctrl.machine().summary();
   EXPECT_EQ(late.outcome(1)->outcome, +fruit_outcome_t::PICKED);
