@@ -41,7 +41,7 @@ TEST_P(SwayingFruit, IsWatchedFromTheStandoffThenPicked) {
       << loop.outcome(1)->detail << "; fruit off the tool point at the close " << off.transpose() * 1e3 << " mm";
   EXPECT_TRUE(ever_noted(loop, "mm rms across the axis): held"));
   EXPECT_FALSE(ever_noted(loop, "still after all"));  // its views while held spread by its sway: held on
-  EXPECT_TRUE(ever_noted(loop, "held 2.5 s"));  // the whole hold_time, noted at its end
+  EXPECT_TRUE(ever_noted(loop, "held 2.5 s"));        // the whole hold_time, noted at its end
   expect_within_limits(loop);
 }
 
