@@ -627,7 +627,8 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
     // Early word from the views taken since the hold began, the arm at rest: a still fruit that looked to sway
     // (seen while the arm moved and turned, its spread is the depth error's sideways share) spreads by the pixel
     // noise alone, a swaying one by its sway. On ten still short trees 10 of 37 IR approaches held the whole 2.5 s;
-    // their held spreads were 0.1-1.0 mm, a swaying fruit's 2.2-6.7 mm (docs/servo-controller.md).
+    // their held spreads were 0.1-1.0 mm, swaying fruit's in tree_wind 4.4-13.6 mm, but once 0.4 mm: a sway along
+    // the gripper axis hardly spreads across it (docs/servo-controller.md).
     const auto spread = sway_.spread_since(rt::to_seconds(*hold_since_));
     if (sway_fed_ <= *hold_since_) {
       note_ = fmt::format("not seen whole in {:.1f} s held: going in", rt::to_seconds(held_for));

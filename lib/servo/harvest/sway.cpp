@@ -37,7 +37,7 @@ std::optional<double> SwayEstimator::spread_since(double t) const {
   const auto first =
       std::lower_bound(samples_.begin(), samples_.end(), t, [](const auto& s, double time) { return s.first < time; });
   const auto n = std::distance(first, samples_.end());
-  if (n < p_.min_samples || n == 0) return std::nullopt;
+  if (n < p_.min_samples) return std::nullopt;  // min_samples >= 5 (its key's range)
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (auto it = first; it != samples_.end(); ++it) mean += it->second;
   mean /= static_cast<double>(n);

@@ -180,7 +180,7 @@ void WorldDouble::publish_hand() {
   if (hidden && spec_.hide_hand_for_s && t >= *spec_.hide_hand_after_s + *spec_.hide_hand_for_s) hidden = false;
   // The image was taken hand_latency_s ago, from where the camera was then.
   const rt::Micros taken = now() - rt::from_seconds(spec_.hand_latency_s);
-  const Eigen::Isometry3d cam = spec_.hand_latency_s > 0.0 ? arm_.camera_at(taken) : arm_.camera();
+  const Eigen::Isometry3d cam = arm_.camera_at(taken);
   const geometry::CameraModel& k = spec_.true_hand;
   fruit_detections_t det{};
   det.header.utime = taken;
