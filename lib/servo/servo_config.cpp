@@ -56,6 +56,9 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.ir_grasp_range = n.get(k::ir_grasp_range);
   c.ir_max_travel = n.get(k::ir_max_travel);
   c.ir_overshoot = n.get(k::ir_overshoot);
+  c.ir_surface_reach = n.get(k::ir_surface_reach);
+  c.ir_surface_travel = n.get(k::ir_surface_travel);
+  c.ir_surface_tolerance = n.get(k::ir_surface_tolerance);
   c.ir_vision_agreement = n.get(k::ir_vision_agreement);
   c.front_fruit_tolerance = n.get(k::front_fruit_tolerance);
   c.grasp_advance = n.get(k::grasp_advance);
@@ -200,7 +203,7 @@ std::vector<config::Section> ServoConfig::schema() {
       config::section("servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
                       k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance,
                       k::ir_approach_speed, k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel,
-                      k::ir_overshoot, k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance,
+                      k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance,
                       k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance,
                       k::position_tolerance, k::retreat_distance, k::pull_distance, k::twist_angle,
                       k::release_at_detach, k::straight_to_next, k::release_opening, k::fruit_order,

@@ -33,6 +33,9 @@ inline constexpr Key<double> ir_min_speed{"ir_min_speed", 0.04, {1e-6, 1e6}, "m/
 inline constexpr Key<double> ir_grasp_range{"ir_grasp_range", 0.015, {1e-6, 1e6}, "m", "IR range at or below which the fruit is inside the gripper"};
 inline constexpr Key<double> ir_max_travel{"ir_max_travel", 0.6, {1e-6, 1e6}, "m", "travel beyond the switch point before backing off"};
 inline constexpr Key<double> ir_overshoot{"ir_overshoot", 0.05, {0.0, 1e6}, "m", "or past the estimated fruit centre by this much"};
+inline constexpr Key<double> ir_surface_reach{"ir_surface_reach", 0.12, {0.0, 1.0}, "m", "... or by this much more while the IR reads a surface that stays put ahead (0: off)"};
+inline constexpr Key<double> ir_surface_travel{"ir_surface_travel", 0.03, {1e-3, 1.0}, "m", "the IR reads a surface that stays put once the tool has come this far toward it ..."};
+inline constexpr Key<double> ir_surface_tolerance{"ir_surface_tolerance", 0.02, {1e-3, 0.2}, "m", "... its readings plus the tool's advance agreeing within this"};
 inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.07, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
 inline constexpr Key<double> front_fruit_tolerance{"front_fruit_tolerance", 0.015, {0.0, 1e6}, "m", "a fruit in front filling the view is closed on only this near the gripper axis"};
 inline constexpr Key<double> grasp_advance{"grasp_advance", 0.015, {0.0, 0.05}, "m", "the arm goes on this far along the tool axis while the gripper closes"};
@@ -128,8 +131,8 @@ inline constexpr Key<double> close_tolerance{"close_tolerance", 0.006, {0.0, 0.1
 inline constexpr Key<double> hold_spread{"hold_spread", 0.0025, {0.0, 1.0}, "m", "positions seen under IR guidance spread more than this (rms about their mean): the fruit sways, and the approach holds ..."};
 inline constexpr Key<double> hold_standoff{"hold_standoff", 0.2, {0.0, 1.0}, "m", "... this far short of it (its centre ahead of the tool point; 0: never holds) ..."};
 inline constexpr Key<double> hold_time{"hold_time", 2.5, {0.0, 30.0}, "s", "... this long, centring on its mean, before going in (at least gains.sway_window and one sway period)"};
-inline constexpr Key<double> hold_check{"hold_check", 0.0, {0.0, 30.0}, "s", "> 0 (e.g. 0.8): after this long held, the views since the hold began decide early: spread less than still_spread, the fruit is still after all; no whole view, nothing to watch; either way it goes in (0: always the whole hold_time; off until the tree_wind loss is understood, docs/servo-controller.md)"};
-inline constexpr Key<double> still_spread{"still_spread", 0.0015, {0.0, 1.0}, "m", "... the spread (rms about their mean) below which the held fruit is still"};
+inline constexpr Key<double> hold_check{"hold_check", 0.8, {0.0, 30.0}, "s", "> 0: after this long held, the views since the hold began decide early: spread less than still_spread, the fruit is still after all; no whole view, nothing to watch; either way it goes in (0: always the whole hold_time)"};
+inline constexpr Key<double> still_spread{"still_spread", 0.002, {0.0, 1.0}, "m", "... the spread (rms about their mean) below which the held fruit is still"};
 inline constexpr Key<double> max_wait{"max_wait", 0.0, {0.0, 10.0}, "s", "... or nearest within this wait, held still at the grasp range (0: close at once, no timing)"};
 }  // namespace sway
 namespace tbz {  // approach_mode tbz
@@ -207,6 +210,11 @@ struct ServoConfig {
   double ir_grasp_range = servo_keys::ir_grasp_range.fallback;       // [m] IR range at or below which the fruit is inside
   double ir_max_travel = servo_keys::ir_max_travel.fallback;          // [m] beyond the switch point before backing off
   double ir_overshoot = servo_keys::ir_overshoot.fallback;          // [m] ... or past the estimated fruit centre by this much
+  // [m] ... or by this much more while the IR reads a surface that stays put ahead: the estimate's depth (from the
+  // apparent size) was short; 0: off
+  double ir_surface_reach = servo_keys::ir_surface_reach.fallback;
+  double ir_surface_travel = servo_keys::ir_surface_travel.fallback;        // [m] a surface stays put over this advance ...
+  double ir_surface_tolerance = servo_keys::ir_surface_tolerance.fallback;  // [m] ... its position agreeing within this
   // [m] > 0: an IR grasp reading counts only with the triangulated fruit
   // centre no farther ahead (a leaf in front of it); 0: off
   double ir_vision_agreement = servo_keys::ir_vision_agreement.fallback;

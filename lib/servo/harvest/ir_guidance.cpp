@@ -13,6 +13,7 @@ void IrGuidance::reset_attempt(const Eigen::Vector3d& tool, rt::Micros now) {
   progress_from_ = tool;
   folded_ = false;
   last_near_.reset();
+  surface_.reset();
 }
 
 void IrGuidance::begin(const Eigen::Vector3d& tool, rt::Micros now) {
@@ -39,6 +40,27 @@ void IrGuidance::on_reading(const ir_range_t& msg, rt::Micros now, bool guiding)
   } else if (last_near_ && msg.range_m > *last_near_ + cfg_.ir_fold_jump) {
     folded_ = true;
   }
+}
+
+void IrGuidance::track_surface(const Eigen::Isometry3d& tool) {
+  if (!ir_ || ir_rx_ == surface_rx_) return;
+  surface_rx_ = ir_rx_;
+  if (ir_->validity != ir_range_t::VALID) {
+    surface_.reset();
+    return;
+  }
+  const double along = tool.translation().dot(tool.rotation().col(2));
+  const double at = along + ir_->range_m;
+  if (surface_ && std::abs(at - surface_->at) <= cfg_.ir_surface_tolerance) {
+    surface_->from = std::min(surface_->from, along);
+    surface_->to = std::max(surface_->to, along);
+  } else {
+    surface_ = Surface{at, along, along};
+  }
+}
+
+bool IrGuidance::surface_ahead() const {
+  return surface_ && surface_->to - surface_->from >= cfg_.ir_surface_travel;
 }
 
 double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit,
@@ -120,7 +142,12 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
     progress_at_ = now;
   }
   const bool blocked = now - progress_at_ > rt::from_seconds(cfg_.timeouts.stall);
-  if ((p - start_).norm() > cfg_.ir_max_travel || ahead < -cfg_.ir_overshoot || blocked) {
+  // Past the estimated centre the fruit was missed, unless the IR reads a surface that stays put ahead as the tool
+  // comes on: the estimate's depth was short (from the apparent size it can be decimetres off; a full-tree run
+  // backed off twice 5 cm past an estimate 10 cm short of the fruit the IR was reading 7 cm ahead, and gave it up).
+  track_surface(tool);
+  const double overshoot = cfg_.ir_overshoot + (ir_fresh && surface_ahead() ? cfg_.ir_surface_reach : 0.0);
+  if ((p - start_).norm() > cfg_.ir_max_travel || ahead < -overshoot || blocked) {
     out.action = IrStep::Action::kGiveUp;
     return out;
   }

@@ -21,7 +21,7 @@ struct IrStep {
   enum class Action {
     kClose,          // the fruit is inside: STOP, close the gripper
     kFruitInTheWay,  // a nearer fruit fills the view beside the axis: give this attempt up
-    kGiveUp,         // out of travel, past the fruit or blocked: as the IR timeout
+    kGiveUp,         // out of travel, past the fruit (the IR reading nothing that stays put ahead) or blocked
     kHold,           // no fresh IR reading: never advance blind
     kAdvance,        // go on, centring, at forward_speed
   } action = Action::kHold;
@@ -72,6 +72,10 @@ class IrGuidance {
 
  private:
   void reset_attempt(const Eigen::Vector3d& tool, rt::Micros now);
+  // Follows the surface the IR reads ahead with each new reading (tool along its axis + range).
+  void track_surface(const Eigen::Isometry3d& tool);
+  // The IR has read one surface staying put while the tool came ir_surface_travel toward it.
+  bool surface_ahead() const;
 
   ServoConfig cfg_;
   std::optional<ir_range_t> ir_;
@@ -82,6 +86,13 @@ class IrGuidance {
   bool folded_ = false;              // ... followed by a jump far beyond it: the sensor folded back
   rt::Micros progress_at_ = 0;       // when the tool last moved ir_progress_step ...
   Eigen::Vector3d progress_from_ = Eigen::Vector3d::Zero();  // ... from here
+  // The surface the IR reads ahead: where it is along the tool axis (tool position + range), and the span of
+  // tool positions along the axis over which the readings agreed with it.
+  struct Surface {
+    double at = 0.0, from = 0.0, to = 0.0;
+  };
+  std::optional<Surface> surface_;
+  rt::Micros surface_rx_ = -1;  // the reading last tracked
   Eigen::Vector3d start_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d grasp_from_ = Eigen::Vector3d::Zero();
 };

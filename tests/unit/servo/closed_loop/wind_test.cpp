@@ -31,7 +31,7 @@ class SwayingFruit : public ::testing::TestWithParam<double> {};
 TEST_P(SwayingFruit, IsWatchedFromTheStandoffThenPicked) {
   const WorldSpec spec = swaying(GetParam());
   ServoConfig cfg = test_config();
-  cfg.sway.hold_check = 0.8;  // off by default; a swaying fruit is held on with it
+  ASSERT_EQ(cfg.sway.hold_check, 0.8);  // the default: a swaying fruit is held on with it
   Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
@@ -85,11 +85,10 @@ double first_noted(const Loop& loop, const std::string& text) {
 // noise's spread, as the depth error's sideways share does while the arm turns
 // in on a tree): after sway.hold_check (0.8 s) of views spreading less than
 // still_spread it is gone in on, not watched the whole hold_time (2.5 s).
-// hold_check is off by default (tree_wind lost fruit with it on).
 // With hold_check 0 it is held 2.5 s.
 TEST(ClosedLoop, AStillFruitThatLookedToSwayIsGoneInOnEarly) {
   ServoConfig cfg = test_config();
-  cfg.sway.hold_check = 0.8;  // off by default (docs/servo-controller.md)
+  ASSERT_EQ(cfg.sway.hold_check, 0.8);  // the default
   cfg.sway.hold_spread = 0.00005;
   Loop loop(experiment_one(), cfg);
   loop.start();

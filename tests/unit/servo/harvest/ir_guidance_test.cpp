@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 namespace harvest::servo {
 namespace {
@@ -146,6 +147,47 @@ TEST(IrGuidance, AnAttemptEndsOutOfTravelPastTheFruitOrBlocked) {
   moving.on_reading(reading(0.2, ir_range_t::TOO_FAR), at(2.1), true);
   EXPECT_NE(moving.step(at(1.9), tool_at(0.006), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
   EXPECT_NE(moving.step(at(2.1), tool_at(0.006), fruit(0.5), std::nullopt).action, IrStep::Action::kGiveUp);
+}
+
+// An estimate 10 cm short (fruit estimated 0.1 m ahead): the IR reads a
+// surface that stays put 0.22 m ahead while the tool comes on in 1 cm steps.
+// Past the estimate by more than ir_overshoot (5 cm) the approach goes on,
+// up to ir_surface_reach (12 cm) more, and closes where the IR reads the
+// grasp range (35 mm: tool at 0.185 m). A reading that does not stay put (a
+// leaf pushed along: always 0.2 m) or nothing read gives up at 5 cm past.
+TEST(IrGuidance, ASurfaceThatStaysPutAheadIsFollowedPastAShortEstimate) {
+  const auto approach = [](const std::function<double(double)>& range, ServoConfig cfg = ServoConfig{}) {
+    cfg.ir_grasp_range = 0.035;
+    IrGuidance g{cfg};
+    g.begin(kTool.translation(), kT);
+    for (int i = 0; i <= 40; ++i) {
+      const double z = 0.01 * i;
+      const rt::Micros now = kT + rt::from_seconds(0.02 * i);
+      g.on_reading(reading(range(z)), now, true);
+      const IrStep s = g.step(now, tool_at(z), fruit(0.1), std::nullopt);
+      if (s.action != IrStep::Action::kAdvance) return std::make_pair(s.action, z);
+    }
+    return std::make_pair(IrStep::Action::kAdvance, 0.4);
+  };
+  const auto [action, z] = approach([](double z) { return 0.22 - z; });
+  EXPECT_EQ(action, IrStep::Action::kClose);
+  EXPECT_NEAR(z, 0.19, 1e-9);  // the first 1 cm step at or past 0.185
+  const auto [pushed, z_pushed] = approach([](double) { return 0.2; });
+  EXPECT_EQ(pushed, IrStep::Action::kGiveUp);
+  EXPECT_NEAR(z_pushed, 0.16, 1e-9);  // 6 cm past the estimate
+  // Followed no farther than ir_surface_reach beyond ir_overshoot: 17 cm past the estimate (a surface 0.5 m ahead).
+  const auto [far, z_far] = approach([](double z) { return 0.5 - z; });
+  EXPECT_EQ(far, IrStep::Action::kGiveUp);
+  EXPECT_NEAR(z_far, 0.275, 0.006);  // 0.27 lies on the bound: its rounding decides
+  ServoConfig off;
+  off.ir_surface_reach = 0.0;
+  const auto [without, z_without] = approach([](double z) { return 0.22 - z; }, off);
+  EXPECT_EQ(without, IrStep::Action::kGiveUp);
+  EXPECT_NEAR(z_without, 0.16, 1e-9);
+  // Readings scattered beyond ir_surface_tolerance (2 cm) are no surface that stays put.
+  const auto [scattered, z_scattered] = approach([](double z) { return 0.22 - z + (std::lround(z * 100) % 2 ? 0.03 : 0.0); });
+  EXPECT_EQ(scattered, IrStep::Action::kGiveUp);
+  EXPECT_NEAR(z_scattered, 0.16, 1e-9);
 }
 
 // Standing off a swaying fruit 0.2 m short of it: the braking speed to there,
