@@ -77,6 +77,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.fruit_order = n.get(k::fruit_order);
   c.max_attempts_per_fruit = n.get(k::max_attempts_per_fruit);
   c.association_gate_px = n.get(k::association_gate_px);
+  c.association_size_ratio = n.get(k::association_size_ratio);
   c.min_ahead_of_home = n.get(k::min_ahead_of_home);
   c.max_aim_angle = n.get(k::max_aim_angle);
   c.view_angle = n.get(k::view_angle);
@@ -207,7 +208,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance,
                       k::position_tolerance, k::retreat_distance, k::pull_distance, k::twist_angle,
                       k::release_at_detach, k::straight_to_next, k::release_opening, k::fruit_order,
-                      k::max_attempts_per_fruit, k::association_gate_px, k::min_ahead_of_home,
+                      k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home,
                       k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap,
                       k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
                       k::size_agreement, k::size_agreement_min, k::fills_view, k::front_fruit_size_ratio,

@@ -53,6 +53,7 @@ inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "s
 inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
 inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
 inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
+inline constexpr Key<double> association_size_ratio{"association_size_ratio", 1.6, {0.0, 100.0}, "", "while following a hand detection, the next one's apparent diameter within this factor of its (a piece of the fruit or a neighbour of another size is not it; 0: off)"};
 inline constexpr Key<double> min_ahead_of_home{"min_ahead_of_home", 0.05, {-10.0, 10.0}, "m", "a target must lie this far ahead of the tool at home, along its axis"};
 inline constexpr Key<double> max_aim_angle{"max_aim_angle", 1.15, {0.0, 1.6}, "rad", "a fruit farther off the gripper axis at home is aimed at from a viewpoint"};
 inline constexpr Key<double> view_angle{"view_angle", 0.5, {0.0, 1.5}, "rad", "the viewpoint turns the home axis this far toward the fruit (0: always aim from home)"};
@@ -252,6 +253,7 @@ struct ServoConfig {
   std::string fruit_order{servo_keys::fruit_order.fallback};
   int max_attempts_per_fruit = servo_keys::max_attempts_per_fruit.fallback;     // attempts per fruit in total; a failed one is retried after every untried one
   double association_gate_px = servo_keys::association_gate_px.fallback;  // hand detection must lie this close to the predicted pixel
+  double association_size_ratio = servo_keys::association_size_ratio.fallback;  // ... and, while followed, keep its size within this factor
   double min_ahead_of_home = servo_keys::min_ahead_of_home.fallback;    // [m] a target must lie this far ahead of the tool at home, along its axis
   // A fruit more than max_aim_angle off the gripper axis at home, or one the
   // arm cannot turn to there, is aimed at from a viewpoint view_distance

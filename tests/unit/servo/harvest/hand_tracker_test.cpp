@@ -85,6 +85,36 @@ TEST(HandTracker, FollowsTheDetectionNearestTheFruitWithinTheGate) {
   EXPECT_FALSE(h.fresh(kT + 33'000 + rt::from_seconds(0.31)).has_value());
 }
 
+// While following, a detection of another apparent size (beyond a factor
+// 1.6: a piece of the fruit, a neighbour nearer or farther) is not the fruit,
+// however near; one within the factor is. A new fruit starts afresh.
+TEST(HandTracker, AFollowedFruitIsNotFollowedOntoAPieceOfAnotherSize) {
+  HandTracker h(config());
+  const Fruit f = fruit_ahead();
+  h.on_detections(image(1, {detection(320, 240, 200)}), f, kCamera, kT);
+  ASSERT_TRUE(h.fresh(kT).has_value());
+  // The fruit broke into pieces: the nearest is 10 px away but 60 px across.
+  h.on_detections(image(2, {detection(330, 240, 60), detection(250, 240, 130)}), f, kCamera, kT + 33'000);
+  EXPECT_EQ(h.fresh(kT + 33'000)->utime, 2);  // 130 px (0.65 of 200) is within the factor: followed, 70 px away
+  EXPECT_FLOAT_EQ(h.fresh(kT + 33'000)->u, 250.0f);
+  h.on_detections(image(3, {detection(255, 240, 60), detection(250, 250, 300)}), f, kCamera, kT + 66'000);
+  EXPECT_EQ(h.fresh(kT + 66'000)->utime, 2);  // 60 / 130 and 300 / 130: neither; the last stays until timeouts.lost
+  h.on_detections(image(4, {detection(255, 240, 200)}), f, kCamera, kT + 99'000);
+  EXPECT_EQ(h.fresh(kT + 99'000)->utime, 4);  // 200 / 130 = 1.54
+  ServoConfig off = config();
+  off.association_size_ratio = 0.0;
+  HandTracker any(off);
+  any.on_detections(image(1, {detection(320, 240, 200)}), f, kCamera, kT);
+  any.on_detections(image(2, {detection(330, 240, 60)}), f, kCamera, kT + 33'000);
+  EXPECT_EQ(any.fresh(kT + 33'000)->utime, 2);
+  // Not following (lost for timeouts.lost): any size is taken again.
+  h.on_detections(image(5, {detection(320, 240, 40)}), f, kCamera, kT + 99'000 + rt::from_seconds(0.31));
+  EXPECT_EQ(h.fresh(kT + 99'000 + rt::from_seconds(0.31))->utime, 5);
+  h.forget_fruit();
+  h.on_detections(image(6, {detection(320, 240, 300)}), f, kCamera, kT + rt::from_seconds(1.0));
+  EXPECT_EQ(h.fresh(kT + rt::from_seconds(1.0))->utime, 6);
+}
+
 TEST(HandTracker, NothingWithinTheGateIsNoMeasurement) {
   HandTracker h(config());
   Fruit f = fruit_ahead();
