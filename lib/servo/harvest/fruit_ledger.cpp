@@ -42,9 +42,14 @@ bool FruitLedger::selectable(int id, const Eigen::Vector3d& p, const std::option
     finished_sight_.erase(id);
     attempts_.erase(id);
   }
+  const auto near = [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; };
+  if (attempts(id) == 0) {
+    for (const Failed& f : failed_)
+      if (near(f.at) || (f.sight && along(*f.sight))) attempts_[id] = std::max(attempts_[id], f.attempts);
+  }
   if (out_of_attempts(id)) return false;
   if (std::any_of(given_up_.begin(), given_up_.end(),
-                  [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; }) ||
+                  near) ||
       std::any_of(given_up_sights_.begin(), given_up_sights_.end(), along)) {
     finished_.insert(id);  // a fruit already given up, seen again under a new id
     finished_at_[id] = p;
@@ -85,7 +90,11 @@ const fruit_outcome_t& FruitLedger::record(int8_t outcome, int id, const Eigen::
   }
   if (outcome == fruit_outcome_t::PICKED) {
     attempts_.erase(id);
-  } else if (out_of_attempts(id)) {
+  } else if (!out_of_attempts(id)) {
+    const std::optional<Eigen::Vector3d> sight =
+        fruit && fruit->sight ? std::optional<Eigen::Vector3d>(fruit->sight->direction) : std::nullopt;
+    failed_.push_back({fruit ? fruit->selected_from : target, sight, attempts(id)});
+  } else {
     const Eigen::Vector3d at = fruit ? fruit->selected_from : target;
     finished_.insert(id);
     finished_at_[id] = at;

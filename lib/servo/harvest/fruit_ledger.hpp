@@ -43,7 +43,8 @@ class FruitLedger {
   // Whether fixed-camera target `id` at `position` (seen along unit
   // `sight`, if the camera is known) may be selected: not finished, not a
   // fruit given up seen again under a new id (it is then finished too), not
-  // out of attempts. A finished id seen far from where it finished, along
+  // out of attempts (a new id where an attempt failed carries that fruit's
+  // attempts). A finished id seen far from where it finished, along
   // another line of sight, is another fruit: its record is forgotten.
   bool selectable(int id, const Eigen::Vector3d& position, const std::optional<Eigen::Vector3d>& sight);
   bool finished(int id) const { return finished_.count(id) > 0; }
@@ -76,6 +77,15 @@ class FruitLedger {
   // image to image, the direction does not.
   std::vector<Eigen::Vector3d> given_up_;
   std::vector<Eigen::Vector3d> given_up_sights_;
+  // Where attempts failed that did not yet give their fruit up, with the attempts made by then: the tracker may
+  // renumber the fruit before its next attempt, and the new id takes its attempts over (else a full-tree run
+  // tried one fruit 40 times under 40 ids until its time limit).
+  struct Failed {
+    Eigen::Vector3d at;
+    std::optional<Eigen::Vector3d> sight;
+    int attempts = 0;
+  };
+  std::vector<Failed> failed_;
   std::vector<fruit_outcome_t> outcomes_;
   Tally tally_;
 };

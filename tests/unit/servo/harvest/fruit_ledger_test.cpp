@@ -54,6 +54,29 @@ TEST(FruitLedger, AFruitGivenUpIsNotTakenForNewUnderANewIdNearby) {
   EXPECT_TRUE(l.selectable(9, kAt + Eigen::Vector3d(0.06, 0, 0), std::nullopt));
 }
 
+// A fruit that failed once and was renumbered before its second attempt
+// (the arm hid it from the fixed camera): the new id near where it failed,
+// or along its line of sight, carries its attempt, so the second failure
+// gives it up for good; an id 6 cm away is another fruit with its own two.
+TEST(FruitLedger, ARenumberedFruitKeepsItsAttempts) {
+  FruitLedger l({2, 0.05, 0.02, 0.15});
+  const Eigen::Vector3d sight(0.0, 1.0, 0.0);
+  fail(l, fruit(3, kAt, sight));
+  const Eigen::Vector3d moved = kAt + Eigen::Vector3d(0.03, 0, 0);
+  EXPECT_TRUE(l.selectable(8, moved, std::nullopt));
+  EXPECT_EQ(l.attempts(8), 1);
+  fail(l, fruit(8, moved));
+  EXPECT_TRUE(l.finished(8));
+  EXPECT_FALSE(l.selectable(9, kAt, std::nullopt));  // given up: under any new id
+  // Along the first failure's line of sight, its depth 20 cm off: the same fruit, one attempt made.
+  FruitLedger s({2, 0.05, 0.02, 0.15});
+  fail(s, fruit(3, kAt, sight));
+  EXPECT_TRUE(s.selectable(8, kAt + 0.2 * sight, sight));
+  EXPECT_EQ(s.attempts(8), 1);
+  EXPECT_TRUE(s.selectable(9, kAt + Eigen::Vector3d(0.06, 0, 0), std::nullopt));
+  EXPECT_EQ(s.attempts(9), 0);
+}
+
 TEST(FruitLedger, AFruitGivenUpIsRecognisedByItsLineOfSightWhenItsDepthJumps) {
   FruitLedger l({1, 0.05, 0.02, 0.15});
   const Eigen::Vector3d sight(0.0, 1.0, 0.0);
