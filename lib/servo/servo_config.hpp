@@ -53,7 +53,7 @@ inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "s
 inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
 inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
 inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
-inline constexpr Key<double> association_size_ratio{"association_size_ratio", 1.6, {0.0, 100.0}, "", "while following a hand detection, the next one's apparent diameter within this factor of its (a piece of the fruit or a neighbour of another size is not it; 0: off)"};
+inline constexpr Key<double> association_size_ratio{"association_size_ratio", 0.0, {0.0, 100.0}, "", "> 0 (e.g. 1.6): while following a hand detection, the next one's apparent diameter within this factor of its (a piece of the fruit or a neighbour of another size is not it; 0: off, untested on trees)"};
 inline constexpr Key<double> min_ahead_of_home{"min_ahead_of_home", 0.05, {-10.0, 10.0}, "m", "a target must lie this far ahead of the tool at home, along its axis"};
 inline constexpr Key<double> max_aim_angle{"max_aim_angle", 1.15, {0.0, 1.6}, "rad", "a fruit farther off the gripper axis at home is aimed at from a viewpoint"};
 inline constexpr Key<double> view_angle{"view_angle", 0.5, {0.0, 1.5}, "rad", "the viewpoint turns the home axis this far toward the fruit (0: always aim from home)"};

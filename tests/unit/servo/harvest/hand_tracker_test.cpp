@@ -89,7 +89,9 @@ TEST(HandTracker, FollowsTheDetectionNearestTheFruitWithinTheGate) {
 // 1.6: a piece of the fruit, a neighbour nearer or farther) is not the fruit,
 // however near; one within the factor is. A new fruit starts afresh.
 TEST(HandTracker, AFollowedFruitIsNotFollowedOntoAPieceOfAnotherSize) {
-  HandTracker h(config());
+  ServoConfig sized = config();
+  sized.association_size_ratio = 1.6;  // off by default
+  HandTracker h(sized);
   const Fruit f = fruit_ahead();
   h.on_detections(image(1, {detection(320, 240, 200)}), f, kCamera, kT);
   ASSERT_TRUE(h.fresh(kT).has_value());
