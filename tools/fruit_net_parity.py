@@ -3,8 +3,7 @@
 
 - fruit_net_parity.png: a small deterministic test image (texture + an orange disc),
 - fruit_net_parity.txt: the network's output on it computed by PyTorch from the ONNX file's own
-  weights (Conv, Relu, Add and nearest Resize run
-  with torch.nn.functional, float32), "1 3 H W" then the values;
+  weights (Conv and Relu nodes run with torch.nn.functional, float32), "1 3 H W" then the values;
   the C++ test requires OpenCV dnn to give the same within 1e-4,
 - wrong_shape.onnx: a valid ONNX net with 2 output maps at full resolution (a model of the wrong shape).
 
@@ -23,8 +22,7 @@ from PIL import Image
 
 
 def run_onnx_in_torch(model, x):
-    """Evaluates the graph tools/train_detector.py exports (Conv, Relu, Add, Resize nearest with constant
-    scales, Constant) with PyTorch, node by node."""
+    """Evaluates a Conv/Relu chain (what tools/train_detector.py exports) with PyTorch."""
     g = model.graph
     w = {i.name: torch.from_numpy(numpy_helper.to_array(i).copy()) for i in g.initializer}
     vals = {g.input[0].name: x}
@@ -38,16 +36,6 @@ def run_onnx_in_torch(model, x):
                          padding=pads[:2], dilation=a.get("dilations", [1, 1]), groups=a.get("group", 1))
         elif n.op_type == "Relu":
             y = F.relu(vals[n.input[0]])
-        elif n.op_type == "Add":
-            y = vals[n.input[0]] + vals[n.input[1]]
-        elif n.op_type == "Constant":
-            y = torch.from_numpy(numpy_helper.to_array(a["value"]).copy())
-        elif n.op_type == "Resize":
-            assert a.get("mode") == b"nearest" and a.get("coordinate_transformation_mode") == b"asymmetric"
-            assert a.get("nearest_mode") == b"floor", "only nearest (floor, asymmetric) Resize is handled"
-            sc = (vals.get(n.input[2]) if n.input[2] in vals else w[n.input[2]]).tolist()
-            assert sc[:2] == [1.0, 1.0] and sc[2] == sc[3] == int(sc[2]), f"scales {sc}"
-            y = vals[n.input[0]].repeat_interleave(int(sc[2]), 2).repeat_interleave(int(sc[3]), 3)
         else:
             raise SystemExit(f"node type {n.op_type} not handled: extend run_onnx_in_torch")
         vals[n.output[0]] = y
