@@ -45,45 +45,24 @@ DIAM_SCALE = 32.0  # diameter channel is log(d / DIAM_SCALE), d in input pixels
 
 
 class FruitNet(nn.Module):
-    """An encoder to 1/16 resolution and a light decoder back to the 1/4 output maps (nearest 2x upsampling
-    plus a 1x1 projection added to the encoder's map at that scale, then a 3x3 convolution), so a fruit is seen
-    whole at every scale: receptive field about 300 px at --width 320 (a close-up fruit reaches 270 px).
-    Only Conv, Relu, Add and Resize (nearest, scale 2) after batch-norm folding: OpenCV 4.6 dnn loads them.
-    Input sides must be multiples of ALIGN (16; the C++ detector scales to that).
-    The recipe before (2026-12-04): stride 4 and dilated convolutions 2, 4, 8 (receptive field ~140 px); a
-    dilation-16 layer more scored better on rendered frames and worse on the photos (docs/perception.md)."""
+    """Two stride-2 convolutions to 1/4 resolution, then dilated convolutions
+    (receptive field ~ 140 px, a whole fruit at --width 320) and a 1x1 head. A dilation-16 layer more
+    (~270 px) and 3500 steps scored better on rendered frames and worse on the photos (docs/perception.md)."""
 
-    def __init__(self):
+    def __init__(self, c=32):
         super().__init__()
 
         def block(i, o, s=1, d=1):
-            return nn.Sequential(nn.Conv2d(i, o, 3, s, d, dilation=d, bias=False), nn.BatchNorm2d(o),
-                                 nn.ReLU(inplace=True))
+            return [nn.Conv2d(i, o, 3, s, d, dilation=d, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
 
-        def proj(i, o):
-            return nn.Sequential(nn.Conv2d(i, o, 1, bias=False), nn.BatchNorm2d(o))
-
-        self.enc4 = nn.Sequential(block(3, 16, 2), block(16, 24, 2), block(24, 32))  # 1/4
-        self.enc8 = nn.Sequential(block(32, 48, 2), block(48, 48))  # 1/8
-        self.enc16 = nn.Sequential(block(48, 64, 2), block(64, 64), block(64, 64, d=2), block(64, 64, d=4))  # 1/16
-        self.up16 = proj(64, 48)
-        self.dec8 = block(48, 48)
-        self.up8 = proj(48, 32)
-        self.dec4 = block(32, 32)
-        self.head = nn.Conv2d(32, 3, 1)
+        layers = block(3, 16, 2) + block(16, 24, 2) + block(24, c) + block(c, c, d=2) + block(c, c, d=4)
+        layers += block(c, c, d=8) + block(c, c, d=1)
+        self.body = nn.Sequential(*layers)
+        self.head = nn.Conv2d(c, 3, 1)
         self.head.bias.data[0] = -4.0  # centres are rare: start the heatmap near 0
 
     def forward(self, x):
-        up = lambda t: F.interpolate(t, scale_factor=2.0, mode="nearest")
-        e4 = self.enc4(x)
-        e8 = self.enc8(e4)
-        e16 = self.enc16(e8)
-        d8 = self.dec8(up(self.up16(e16)) + e8)
-        d4 = self.dec4(up(self.up8(d8)) + e4)
-        return self.head(d4)
-
-
-ALIGN = 16  # input sides a multiple of this (the encoder's deepest stride)
+        return self.head(self.body(x))
 
 
 def normalise(rgb_u8):
@@ -160,23 +139,14 @@ def jitter(img, rng):
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def sample(item, crop, rng, scale=(0.5, 2.0)):
-    """A crop x crop sample at a log-uniform scale (tiny canopy fruit to close-ups); an image smaller than the
-    crop is placed at a random spot on its mean colour (no stretching)."""
+def sample(item, crop, rng):
     _, img, boxes = item
-    s = math.exp(rng.uniform(math.log(scale[0]), math.log(scale[1])))
+    s = rng.uniform(0.6, 1.6)
     h, w = img.shape[:2]
-    nw, nh = max(1, int(round(w * s))), max(1, int(round(h * s)))
+    nw, nh = max(crop, int(w * s)), max(crop, int(h * s))
     s_x, s_y = nw / w, nh / h
     im = np.asarray(Image.fromarray(img).resize((nw, nh), Image.BILINEAR))
     b = boxes * np.array([s_x, s_y, s_x, s_y, 1.0])
-    if nw < crop or nh < crop:
-        canvas = np.empty((max(crop, nh), max(crop, nw), 3), np.uint8)
-        canvas[:] = im.reshape(-1, 3).mean(axis=0).astype(np.uint8)
-        px, py = rng.integers(0, canvas.shape[1] - nw + 1), rng.integers(0, canvas.shape[0] - nh + 1)
-        canvas[py : py + nh, px : px + nw] = im
-        im, b = canvas, b + np.array([px, py, px, py, 0.0])
-        nh, nw = canvas.shape[:2]
     x0, y0 = rng.integers(0, nw - crop + 1), rng.integers(0, nh - crop + 1)
     im = im[y0 : y0 + crop, x0 : x0 + crop]
     b = b - np.array([x0, y0, x0, y0, 0.0])
@@ -279,9 +249,8 @@ def match(dets, boxes):
 
 
 def pad4(img):
-    """Crops to sides that are multiples of ALIGN (the C++ detector scales to such sides instead)."""
     h, w = img.shape[:2]
-    return img[: h - h % ALIGN, : w - w % ALIGN]
+    return img[: h - h % STRIDE, : w - w % STRIDE]
 
 
 THRESHOLDS = [round(0.15 + 0.05 * i, 2) for i in range(12)]  # 0.15 .. 0.70, the grid a threshold is chosen from

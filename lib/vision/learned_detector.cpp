@@ -127,11 +127,10 @@ std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
 }
 
 std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
-  // Scale to the training width; both sides a multiple of kAlign (the network
-  // halves its maps four times and adds them back up to 1/4: tools/train_detector.py).
+  // Scale to the training width; both sides a multiple of the stride.
   const double s = static_cast<double>(config_.input_width) / bgr.cols;
-  const int w = std::max(kAlign, config_.input_width / kAlign * kAlign);
-  const int h = std::max(kAlign, static_cast<int>(std::lround(bgr.rows * s)) / kAlign * kAlign);
+  const int w = std::max(kStride, config_.input_width / kStride * kStride);
+  const int h = std::max(kStride, static_cast<int>(std::lround(bgr.rows * s)) / kStride * kStride);
   cv::Mat3b in;
   cv::resize(bgr, in, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);
   std::vector<Fruit> fruits = decode(forward(in));

@@ -47,7 +47,6 @@ struct LearnedConfig {
 class LearnedDetector {
  public:
   static constexpr int kStride = 4;             // output cell size in input pixels
-  static constexpr int kAlign = 16;             // input sides a multiple of this (the encoder's deepest stride)
   static constexpr double kDiameterScale = 32;  // diameter channel is log(d / kDiameterScale)
 
   // Loads and checks the model (one trial forward pass: 3 output maps at 1/4
