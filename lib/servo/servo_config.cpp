@@ -9,7 +9,6 @@
 
 namespace harvest::servo {
 
-
 bool Workspace::contains(const Eigen::Vector3d& p, double margin) const {
   const double r = p.norm();
   return (p.array() >= min.array() + margin).all() && (p.array() <= max.array() - margin).all() &&
@@ -117,9 +116,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
     ws.fail("", fmt::format("a box inside the robot envelope's [{:g}, {:g}, {:g}]..[{:g}, {:g}, {:g}] ({}), got "
                             "[{:g}, {:g}, {:g}]..[{:g}, {:g}, {:g}]",
                             envelope.min.x(), envelope.min.y(), envelope.min.z(), envelope.max.x(), envelope.max.y(),
-                            envelope.max.z(), n.get(k::envelope).string(),
-                            c.workspace.min.x(), c.workspace.min.y(), c.workspace.min.z(), c.workspace.max.x(),
-                            c.workspace.max.y(), c.workspace.max.z()));
+                            envelope.max.z(), n.get(k::envelope).string(), c.workspace.min.x(), c.workspace.min.y(),
+                            c.workspace.min.z(), c.workspace.max.x(), c.workspace.max.y(), c.workspace.max.z()));
 
   // Home: the thesis experiment I start pose (table 6-5), gripper axis along base +y.
   c.home_pose = pose(n.child("home_pose"), k::pose::home_position, k::pose::home_orientation);
@@ -204,32 +202,32 @@ std::vector<config::Section> ServoConfig::schema() {
       config::section("servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
                       k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance,
                       k::ir_approach_speed, k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel,
-                      k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance,
-                      k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance,
-                      k::position_tolerance, k::retreat_distance, k::pull_distance, k::twist_angle,
-                      k::release_at_detach, k::straight_to_next, k::release_opening, k::fruit_order,
-                      k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home,
-                      k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap,
-                      k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
-                      k::size_agreement, k::size_agreement_min, k::fills_view, k::front_fruit_size_ratio,
-                      k::whole_fruit_border_px, k::goal_progress_step, k::goal_progress_angle, k::in_view_margin,
-                      k::sight_aim_margin),
+                      k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance,
+                      k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near,
+                      k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance, k::position_tolerance,
+                      k::retreat_distance, k::pull_distance, k::twist_angle, k::release_at_detach, k::straight_to_next,
+                      k::release_opening, k::fruit_order, k::max_attempts_per_fruit, k::association_gate_px,
+                      k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle, k::view_angle,
+                      k::view_distance, k::triangulation_gap, k::min_triangulation_angle, k::image_pose_gap,
+                      k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,
+                      k::size_agreement_min, k::fills_view, k::front_fruit_size_ratio, k::whole_fruit_border_px,
+                      k::goal_progress_step, k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),
       config::section("servo_controller.drop_pose", where, k::pose::drop_position, k::pose::drop_orientation),
       config::section("servo_controller.gains", where, g::kp_lateral, g::kd_lateral, g::kp_depth, g::kd_depth,
                       g::derivative_filter, g::centring_tolerance, g::sway_window, g::kp_orient, g::kd_orient),
-      config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost, t::reacquire,
-                      t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
+      config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost,
+                      t::reacquire, t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
       config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span,
                       k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
-                      k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit, k::sway::max_centre_offset, k::sway::close_delay,
-                      k::sway::close_tolerance, k::sway::hold_spread, k::sway::hold_standoff, k::sway::hold_time,
-                      k::sway::hold_check, k::sway::still_spread, k::sway::max_wait),
+                      k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit,
+                      k::sway::max_centre_offset, k::sway::close_delay, k::sway::close_tolerance, k::sway::hold_spread,
+                      k::sway::hold_standoff, k::sway::hold_time, k::sway::hold_check, k::sway::still_spread,
+                      k::sway::max_wait),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
-                      k::tbz::desired_wait_s, k::tbz::arrived_rotation,
-                      k::tbz::arrived_translation),
+                      k::tbz::desired_wait_s, k::tbz::arrived_rotation, k::tbz::arrived_translation),
       security::AuthorityConfig::schema("servo_controller.authority", where, security::AuthorityConfig::kSender)};
 }
 

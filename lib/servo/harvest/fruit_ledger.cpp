@@ -48,8 +48,7 @@ bool FruitLedger::selectable(int id, const Eigen::Vector3d& p, const std::option
       if (near(f.at) || (f.sight && along(*f.sight))) attempts_[id] = std::max(attempts_[id], f.attempts);
   }
   if (out_of_attempts(id)) return false;
-  if (std::any_of(given_up_.begin(), given_up_.end(),
-                  near) ||
+  if (std::any_of(given_up_.begin(), given_up_.end(), near) ||
       std::any_of(given_up_sights_.begin(), given_up_sights_.end(), along)) {
     finished_.insert(id);  // a fruit already given up, seen again under a new id
     finished_at_[id] = p;

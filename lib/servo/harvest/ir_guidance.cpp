@@ -59,9 +59,7 @@ void IrGuidance::track_surface(const Eigen::Isometry3d& tool) {
   }
 }
 
-bool IrGuidance::surface_ahead() const {
-  return surface_ && surface_->to - surface_->from >= cfg_.ir_surface_travel;
-}
+bool IrGuidance::surface_ahead() const { return surface_ && surface_->to - surface_->from >= cfg_.ir_surface_travel; }
 
 double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit,
                                  std::optional<double> hold_at) const {

@@ -185,7 +185,8 @@ TEST(IrGuidance, ASurfaceThatStaysPutAheadIsFollowedPastAShortEstimate) {
   EXPECT_EQ(without, IrStep::Action::kGiveUp);
   EXPECT_NEAR(z_without, 0.16, 1e-9);
   // Readings scattered beyond ir_surface_tolerance (2 cm) are no surface that stays put.
-  const auto [scattered, z_scattered] = approach([](double z) { return 0.22 - z + (std::lround(z * 100) % 2 ? 0.03 : 0.0); });
+  const auto [scattered, z_scattered] =
+      approach([](double z) { return 0.22 - z + (std::lround(z * 100) % 2 ? 0.03 : 0.0); });
   EXPECT_EQ(scattered, IrStep::Action::kGiveUp);
   EXPECT_NEAR(z_scattered, 0.16, 1e-9);
 }
