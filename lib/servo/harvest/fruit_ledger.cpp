@@ -89,18 +89,21 @@ const fruit_outcome_t& FruitLedger::record(int8_t outcome, int id, const Eigen::
   }
   if (outcome == fruit_outcome_t::PICKED) {
     attempts_.erase(id);
-  } else if (!out_of_attempts(id)) {
-    const std::optional<Eigen::Vector3d> sight =
-        fruit && fruit->sight ? std::optional<Eigen::Vector3d>(fruit->sight->direction) : std::nullopt;
-    failed_.push_back({fruit ? fruit->selected_from : target, sight, attempts(id)});
+    return outcomes_.back();
+  }
+  // Where the fruit was at selection (fixed camera), and its line of sight.
+  const Eigen::Vector3d at = fruit ? fruit->selected_from : target;
+  const std::optional<Eigen::Vector3d> sight =
+      fruit && fruit->sight ? std::optional<Eigen::Vector3d>(fruit->sight->direction) : std::nullopt;
+  if (!out_of_attempts(id)) {
+    failed_.push_back({at, sight, attempts(id)});
   } else {
-    const Eigen::Vector3d at = fruit ? fruit->selected_from : target;
     finished_.insert(id);
     finished_at_[id] = at;
     given_up_.push_back(at);
-    if (fruit && fruit->sight) {
-      finished_sight_[id] = fruit->sight->direction;
-      given_up_sights_.push_back(fruit->sight->direction);
+    if (sight) {
+      finished_sight_[id] = *sight;
+      given_up_sights_.push_back(*sight);
     }
   }
   return outcomes_.back();
