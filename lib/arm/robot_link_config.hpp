@@ -21,37 +21,49 @@ namespace harvest::arm {
 namespace link_keys {
 using config::Key;
 using config::Path;
-inline constexpr Key<Path> arm_model{"arm_model", "k1207i.yaml", {}, "",
-                                     "the arm model: DH parameters, joint limits, tool and camera offsets, home"};
-inline constexpr Key<Path> envelope{"envelope", "envelope.yaml", {}, "",
-                                    "the robot envelope: workspace box, speed and acceleration limits"};
+inline constexpr Key<Path> arm_model{
+    "arm_model", "k1207i.yaml", {}, "", "the arm model: DH parameters, joint limits, tool and camera offsets, home"};
+inline constexpr Key<Path> envelope{
+    "envelope", "envelope.yaml", {}, "", "the robot envelope: workspace box, speed and acceleration limits"};
 inline constexpr Key<double> quick_stop_deceleration_factor{
-    "quick_stop_deceleration_factor", 10.0, {0.5, 50.0}, "",
+    "quick_stop_deceleration_factor",
+    10.0,
+    {0.5, 50.0},
+    "",
     "the drives' quick-stop ramp (0x6085) = this x the joint's acceleration limit"};
 // limits
-inline constexpr Key<int> default_validity_ms{"default_validity_ms", 100, {10, 1000}, "ms",
-                                              "a command's validity when it says 0 (at most max_validity_ms)"};
-inline constexpr Key<int> max_validity_ms{"max_validity_ms", 1000, {10, 10000}, "ms",
-                                          "longer validities are cut to this"};
+inline constexpr Key<int> default_validity_ms{
+    "default_validity_ms", 100, {10, 1000}, "ms", "a command's validity when it says 0 (at most max_validity_ms)"};
+inline constexpr Key<int> max_validity_ms{
+    "max_validity_ms", 1000, {10, 10000}, "ms", "longer validities are cut to this"};
 inline constexpr Key<double> min_goal_linear_speed{
-    "min_goal_linear_speed", 0.01, {1e-4, 0.1}, "m/s",
+    "min_goal_linear_speed",
+    0.01,
+    {1e-4, 0.1},
+    "m/s",
     "pose goals capped slower are refused (their dry run would never end); at most the envelope's speed"};
-inline constexpr Key<double> min_goal_angular_speed{"min_goal_angular_speed", 0.02, {1e-4, 0.5}, "rad/s",
-                                                    "the same for the angular speed cap"};
+inline constexpr Key<double> min_goal_angular_speed{
+    "min_goal_angular_speed", 0.02, {1e-4, 0.5}, "rad/s", "the same for the angular speed cap"};
 inline constexpr Key<double> non_physical_factor{
-    "non_physical_factor", 3.0, {1.0, 100.0}, "",
+    "non_physical_factor",
+    3.0,
+    {1.0, 100.0},
+    "",
     "twists faster than this x the speed limits are garbage: refused, not clipped"};
 // control
-inline constexpr Key<double> position_gain{"position_gain", 5.0, {0.0, 100.0}, "1/s",
-                                           "feedback gain on the goal trajectory's position"};
-inline constexpr Key<double> orientation_gain{"orientation_gain", 5.0, {0.0, 100.0}, "1/s",
-                                              "feedback gain on its orientation"};
-inline constexpr Key<double> joint_gain{"joint_gain", 5.0, {0.0, 100.0}, "1/s",
-                                        "feedback gain of joint-space trajectories"};
-inline constexpr Key<int> enable_timeout_ms{"enable_timeout_ms", 3000, {100, 60000}, "ms",
-                                            "the drives must reach operation enabled within this"};
+inline constexpr Key<double> position_gain{
+    "position_gain", 5.0, {0.0, 100.0}, "1/s", "feedback gain on the goal trajectory's position"};
+inline constexpr Key<double> orientation_gain{
+    "orientation_gain", 5.0, {0.0, 100.0}, "1/s", "feedback gain on its orientation"};
+inline constexpr Key<double> joint_gain{
+    "joint_gain", 5.0, {0.0, 100.0}, "1/s", "feedback gain of joint-space trajectories"};
+inline constexpr Key<int> enable_timeout_ms{
+    "enable_timeout_ms", 3000, {100, 60000}, "ms", "the drives must reach operation enabled within this"};
 inline constexpr Key<int> realtime_priority{
-    "realtime_priority", 0, {0, 99}, "",
+    "realtime_priority",
+    0,
+    {0, 99},
+    "",
     "SCHED_FIFO priority of the control loop (0: normal; needs root or CAP_SYS_NICE, refused: a warning)"};
 }  // namespace link_keys
 
@@ -63,6 +75,7 @@ struct DryRunOptions {
   double settle = 1.0;                  // [s] after the trajectory's end
   double position_tolerance = 0.002;    // [m]
   double orientation_tolerance = 0.01;  // [rad]
+  double end_joint_margin = 0.005;      // [rad] and every joint at least this far inside its limits at the end
   // A straight path that stops this near the goal, when the joint space has
   // no way either, runs anyway (the arm gets as close as it can; the
   // controller decides what short means) rather than being refused.
@@ -88,7 +101,7 @@ struct DryRunOptions {
 struct CommandLimits {
   double min_goal_linear_speed = link_keys::min_goal_linear_speed.fallback;    // a pose goal's, if not 0
   double min_goal_angular_speed = link_keys::min_goal_angular_speed.fallback;  // a pose goal's, if not 0
-  double non_physical_factor = link_keys::non_physical_factor.fallback;  // faster twists are refused
+  double non_physical_factor = link_keys::non_physical_factor.fallback;        // faster twists are refused
 };
 
 struct RobotLinkConfig {

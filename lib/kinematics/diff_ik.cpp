@@ -47,26 +47,45 @@ Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::Vec
   return qdot;
 }
 
+double stopping_speed(const Joint& joint, double q, double direction, double dt) {
+  const double room = std::max(0.0, direction > 0 ? joint.max - q : q - joint.min);
+  return std::min(std::sqrt(2.0 * joint.max_acceleration * room), room / dt);
+}
+
 Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
                                              double dt, const IkOptions& options, int* num_locked) {
   const int n = model.dof();
   std::vector<bool> locked(static_cast<std::size_t>(n), false);
+  Eigen::VectorXd fixed = Eigen::VectorXd::Zero(n);  // the locked joints' velocities
   Eigen::VectorXd qdot = joint_velocity_for_twist(model, q, twist, options);
   int count = 0;
   for (int pass = 0; pass < n; ++pass) {
     bool changed = false;
     for (int i = 0; i < n; ++i) {
-      // Only motion further out is stopped: a joint that overshot its limit
-      // (by its deceleration) must stay free to come back inside.
+      // Only motion further out is limited: a joint that overshot its limit
+      // (by its deceleration) must stay free to come back inside. A joint
+      // braking for its limit goes on at the speed it may still have, and the
+      // others make up the rest of the twist: braked after the solution
+      // instead, the tool would swerve off the commanded motion (seen on the
+      // tree: the shoulder roll braking at 170 deg during an IR approach moved
+      // the tool 150 mm sideways, its axis off the fruit).
+      const auto& jt = model.joints[i];
       const double next = q[i] + qdot[i] * dt;
-      if (!locked[i] && ((qdot[i] > 0 && next > model.joints[i].max) || (qdot[i] < 0 && next < model.joints[i].min))) {
+      const bool passes = (qdot[i] > 0 && next > jt.max) || (qdot[i] < 0 && next < jt.min);
+      const double allowed =
+          options.brake_at_limits ? stopping_speed(jt, q[i], qdot[i], dt) : (passes ? 0.0 : INFINITY);
+      if (!locked[i] && std::abs(qdot[i]) > allowed) {
         locked[i] = true;
+        fixed[i] = std::copysign(allowed, qdot[i]);
         changed = true;
         ++count;
       }
     }
     if (!changed) break;
-    qdot = joint_velocity_for_twist(model, q, twist, options, &locked);
+    const Twist rest_of_twist = twist - tool_jacobian(model, q) * fixed;
+    qdot = joint_velocity_for_twist(model, q, rest_of_twist, options, &locked);
+    for (int i = 0; i < n; ++i)
+      if (locked[i]) qdot[i] = fixed[i];
   }
   if (num_locked != nullptr) *num_locked = count;
   return qdot;
@@ -102,9 +121,7 @@ LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorX
   // still stop there with the joint's deceleration (and reach it within dt).
   for (int i = 0; i < n; ++i) {
     const auto& jt = model.joints[i];
-    const double room = qd[i] > 0 ? jt.max - q[i] : q[i] - jt.min;
-    const double allowed =
-        std::max(0.0, std::min(std::sqrt(2.0 * jt.max_acceleration * std::max(room, 0.0)), std::max(room, 0.0) / dt));
+    const double allowed = stopping_speed(jt, q[i], qd[i], dt);
     if (std::abs(qd[i]) > allowed) {
       qd[i] = std::copysign(allowed, qd[i]);
       out.position_clipped = true;

@@ -21,6 +21,11 @@ struct IkOptions {
   double max_damping = 0.05;         // lambda at a singularity
   double singular_threshold = 0.04;  // smallest singular value below which damping ramps in
   double null_space_gain = 0.5;      // joint-centring speed at a limit [rad/s]
+  // joint_velocity_within_limits: a joint heading for its limit goes on at its
+  // stopping speed (motion control), or stops where it is if it would pass the
+  // limit within dt (the pose solver's Newton steps: pinned at a limit, a
+  // search stalls there).
+  bool brake_at_limits = true;
 };
 
 // Joint velocities that produce `twist` (TCP linear, tool angular; base frame).
@@ -28,9 +33,16 @@ struct IkOptions {
 Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
                                          const IkOptions& options = {}, const std::vector<bool>* locked = nullptr);
 
-// As joint_velocity_for_twist, but a joint that would pass a position limit
-// within `dt` is locked and the twist re-solved with the remaining joints
-// (the redundancy takes over). Returns the locked-joint count in `num_locked`.
+// The fastest `joint` at `q` may move in `direction` (its sign) and still stop
+// at the limit it heads for with its acceleration limit, reaching it no sooner
+// than `dt`; 0 at or past that limit.
+double stopping_speed(const Joint& joint, double q, double direction, double dt);
+
+// As joint_velocity_for_twist, but a joint that would move toward a position
+// limit faster than its stopping_speed is held at that speed and the rest of
+// the twist re-solved with the remaining joints (the redundancy takes over),
+// so the tool still moves as commanded while the others can make it up.
+// Returns the held-joint count in `num_locked`.
 Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
                                              double dt, const IkOptions& options = {}, int* num_locked = nullptr);
 
@@ -53,11 +65,11 @@ LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorX
 Twist pose_error(const Eigen::Isometry3d& desired, const Eigen::Isometry3d& current);
 
 struct PoseSolveOptions {
-  IkOptions ik{.null_space_gain = 0.05};  // per iteration: small, so the Newton steps converge
-  double position_tolerance = 1e-5;       // [m]
-  double orientation_tolerance = 1e-4;    // [rad]
-  int max_iterations = 1000;              // per start
-  int restarts = 8;                       // further starts if one stalls at a joint limit
+  IkOptions ik{.null_space_gain = 0.05, .brake_at_limits = false};  // per iteration: small, so the steps converge
+  double position_tolerance = 1e-5;                                 // [m]
+  double orientation_tolerance = 1e-4;                              // [rad]
+  int max_iterations = 1000;                                        // per start
+  int restarts = 8;                                                 // further starts if one stalls at a joint limit
 };
 
 // Joint configuration placing the tool at `target`, found by iterating the

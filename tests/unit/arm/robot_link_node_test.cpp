@@ -1432,7 +1432,12 @@ TEST(RobotLinkNode, ReorientationsFromHomeOverAGrid) {
     // Beside the tool, a long joint-space swing (slowed to the tool's speed
     // limits) may move away from the goal for longer than the controller's
     // 2 s no-progress rule: given up there, never a fruit in the tree.
-    EXPECT_TRUE(new_ok || was_refused || (!tree && in_joints && new_way.stalled))
+    // A goal with no joint solution whose straight path stops near enough runs "as near as it gets" (the
+    // controller decides what short means): never one the Cartesian way reached, and the arm ends that near.
+    const bool as_near_as_it_gets = !old_ok && !in_joints && !was_refused &&
+                                    new_way.position_error <= c.dry_run.near_enough_position &&
+                                    new_way.orientation_error <= c.dry_run.near_enough_orientation;
+    EXPECT_TRUE(new_ok || was_refused || as_near_as_it_gets || (!tree && in_joints && new_way.stalled))
         << "aim (" << aim.transpose() << ") accepted but not reached";
     if (was_refused) {
       EXPECT_LT((position(rig.last().tool_pose) - home.translation()).norm(), 1e-6) << "a refused goal moves nothing";
