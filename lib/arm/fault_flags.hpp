@@ -20,6 +20,7 @@ enum FaultFlag : int32_t {
   kFlagForeign = 1 << 10,       // frames on the bus we did not send: another master, forged PDOs
   kFlagNmtLeft = 1 << 11,       // a drive's heartbeat says it left operational, or it rebooted
   kFlagUncommanded = 1 << 12,   // a drive's CiA 402 state changed without a command
+  kFlagJointLimit = 1 << 13,    // a joint is braking for (or held at) its position limit this period
 };
 
 }  // namespace harvest::arm

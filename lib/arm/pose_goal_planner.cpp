@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "runtime/clock.hpp"
 
@@ -140,6 +141,16 @@ void PoseGoalPlanner::decide_after_dry_run(const Eigen::VectorXd& q) {
   const PoseGoalDryRun& dry = dry_run_.result();
   plan_.dry_run = dry;
   if (dry.reached) {
+    const double tol = config_->dry_run.home_posture_tolerance;
+    Eigen::Index joint = 0;
+    const double off = (dry.q - config_->model.home).cwiseAbs().maxCoeff(&joint);
+    std::string home_why;
+    if (tol > 0.0 && off > tol && (plan_.joints = home_path(*config_, q, goal(), &home_why))) {
+      plan_.way = PoseGoalPlan::Way::kJointSpace;
+      plan_.why = fmt::format("the straight path home ends in another posture (joint {} {:.0f} deg from home's); {}",
+                              joint + 1, off * 180.0 / std::numbers::pi, home_why);
+      return;
+    }
     plan_.way = PoseGoalPlan::Way::kCartesian;
     plan_.cartesian.emplace(dry_run_.trajectory());
     plan_.why = fmt::format("Cartesian (the straight path's dry run ends {:.1f} mm, {:.3f} rad from it)",

@@ -76,6 +76,12 @@ struct DryRunOptions {
   double position_tolerance = 0.002;    // [m]
   double orientation_tolerance = 0.01;  // [rad]
   double end_joint_margin = 0.005;      // [rad] and every joint at least this far inside its limits at the end
+  // A goal at the home pose whose straight path ends with a joint farther than
+  // this from the home posture goes to the home posture in joint space: the
+  // way home resets the arm's redundancy (a straight path keeps whatever branch
+  // the arm drifted into; on the tree one with the shoulder roll at its 170 deg
+  // limit stalled IR approaches for minutes). 0: off.
+  double home_posture_tolerance = 0.35;  // [rad]
   // A straight path that stops this near the goal, when the joint space has
   // no way either, runs anyway (the arm gets as close as it can; the
   // controller decides what short means) rather than being refused.

@@ -222,6 +222,7 @@ void RobotLinkNode::supervise() {
 
 Eigen::VectorXd RobotLinkNode::command_velocity(double dt) {
   limited_now_ = false;
+  joint_limited_now_ = false;
   const bool fresh = supervisor_.command_fresh(now());  // stale or no command: controlled stop
   CartesianStep step;
   // Joint-space motions, and the ramp to rest (no command, a stale one, a pose goal being planned).
@@ -244,6 +245,7 @@ Eigen::VectorXd RobotLinkNode::command_velocity(double dt) {
     limited_now_ = true;
     if (limit_text_ != step.clip.reason) limit_event(step.clip.reason);  // one event per episode, not per cycle
   }
+  joint_limited_now_ = step.position_clipped;
   if (step.position_clipped && !limited_now_) {
     limited_now_ = true;
     if (limit_text_ != "joint position limit") limit_event("joint position limit");
@@ -288,10 +290,10 @@ void RobotLinkNode::log_own_stalls(Micros t) {
   Micros since = 0;
   if (!stall_log_.admit(t, unlogged, since)) return;
   // Not a fault of the drives: they see our silence past their RPDO deadline and stop the arm themselves.
-  spdlog::warn("robot link loop stalled ({} in all, longest {} ms beyond can.own_stall_ms, {} ms in all): not "
-               "counted against the drives; the drives stop the arm after can.drive_rpdo_timeout_ms ({} ms)",
-               stalls_seen_, awake.longest_lost_us() / 1000, awake.lost_us() / 1000,
-               config_.can.drive_rpdo_timeout_ms);
+  spdlog::warn(
+      "robot link loop stalled ({} in all, longest {} ms beyond can.own_stall_ms, {} ms in all): not "
+      "counted against the drives; the drives stop the arm after can.drive_rpdo_timeout_ms ({} ms)",
+      stalls_seen_, awake.longest_lost_us() / 1000, awake.lost_us() / 1000, config_.can.drive_rpdo_timeout_ms);
 }
 
 void RobotLinkNode::tick() {
@@ -338,6 +340,7 @@ void RobotLinkNode::publish_state(const Eigen::VectorXd& cmd) {
   link.shutting_down = shutting_down_;
   link.has_motion = !std::holds_alternative<NoMotion>(motion_);
   link.limited = limited_now_;
+  link.joint_limited = joint_limited_now_;
   link.refused = refused_;
   link.enable_timed_out = enable_timed_out_;
   link.limit_events = limit_events_;

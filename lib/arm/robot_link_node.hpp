@@ -78,6 +78,7 @@ class RobotLinkNode final : public rt::Node {
 
   int32_t limit_events_ = 0;
   bool limited_now_ = false;
+  bool joint_limited_now_ = false;  // ... a joint braking for its position limit (kFlagJointLimit)
   bool refused_ = false;
   std::string limit_text_;
   // Limits that come and go every control period (or two that alternate),

@@ -50,6 +50,7 @@ robot_state_t robot_state_message(const kinematics::ArmModel& model, const Motio
   if (supervisor.estopped()) flags |= kFlagEstop;
   if (s.command_stale) flags |= kFlagCommandStale;
   if (link.limited) flags |= kFlagLimited;
+  if (link.joint_limited) flags |= kFlagJointLimit;
   if (link.refused) flags |= kFlagRefused;
   if (link.enable_timed_out) flags |= kFlagEnableTimeout;
   s.fault_flags = flags;

@@ -22,9 +22,10 @@ struct LinkSnapshot {
   Eigen::VectorXd q, qd, cmd;  // joints, their velocities, this period's command
   bool drives_enabled = false;
   bool shutting_down = false;
-  bool has_motion = false;  // a motion is active (not NoMotion)
-  bool limited = false;     // this period's command was limited
-  bool refused = false;     // the last command was refused
+  bool has_motion = false;     // a motion is active (not NoMotion)
+  bool limited = false;        // this period's command was limited
+  bool joint_limited = false;  // ... a joint braking for (or held at) its position limit among the reasons
+  bool refused = false;        // the last command was refused
   bool enable_timed_out = false;
   int32_t limit_events = 0;
   std::string limit_text;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "arm/fault_flags.hpp"
 #include "servo/geometry.hpp"
 #include "servo/harvest/aiming.hpp"
 #include "servo/harvest/safety.hpp"
@@ -81,8 +82,10 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
     start_goal(retreat_goal(), State::kRetreat, now, out);
-    // Out of the canopy the next fruit can be turned to straight from there (its aim from home).
-    next_after_retreat_ = straight();
+    // Out of the canopy the next fruit can be turned to straight from there (its aim from home); after a joint met
+    // its limit going in, home first: the robot link's way home resets the arm's posture.
+    next_after_retreat_ = straight() && !(cfg_.home_after_joint_limit && joint_limit_met_);
+    if (straight() && !next_after_retreat_) note_ = "a joint met its limit going in: home first";
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
@@ -273,6 +276,8 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
   if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
   if (!running()) return out;
   if (const auto f = robot_fault(msg)) fault(*f, now, out);
+  const bool going_in = state_ == State::kApproach || state_ == State::kIrApproach || state_ == State::kBackoff;
+  if (going_in && (msg.fault_flags & arm::kFlagJointLimit) != 0) joint_limit_met_ = true;
   return out;
 }
 
@@ -474,6 +479,7 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
       }
       break;
     case State::kReturn:
+      joint_limit_met_ = false;  // home: the robot link went back to the home posture
       if (current_) {
         orient(now, out);  // back from a blocked turn, or home on the way to a viewpoint: aim from here
       } else {

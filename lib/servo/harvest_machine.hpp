@@ -229,6 +229,7 @@ class HarvestMachine {
   std::optional<Eigen::Vector3d> approach_from_;
   bool next_after_retreat_ = false;    // the retreat under way ends a fruit: select at its end (straight_to_next)
   bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
+  bool joint_limit_met_ = false;       // a joint met its limit going in since the arm was last home
 };
 
 }  // namespace harvest::servo

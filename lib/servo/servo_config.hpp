@@ -50,6 +50,7 @@ inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
 inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
 inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "select the next fruit at the end of a retreat and turn to it from there (false: home first, the thesis)"};
+inline constexpr Key<bool> home_after_joint_limit{"home_after_joint_limit", true, {}, "", "after an approach during which the robot link reported a joint at its position limit, go home before the next fruit (the way home resets the arm's posture)"};
 inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
 inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
 inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
@@ -244,6 +245,12 @@ struct ServoConfig {
   // viewpoint, and orient_law thesis_pd, still go home first. false: RETURN
   // home, then SELECT (the thesis's sequence).
   bool straight_to_next = servo_keys::straight_to_next.fallback;
+  // ... except after an approach during which a joint met its position limit
+  // (ROBOT_STATE kFlagJointLimit): then home first, where the robot link
+  // returns to the home posture (its redundancy had drifted; on the tree into
+  // a branch with the shoulder roll at its limit, stalling approach after
+  // approach).
+  bool home_after_joint_limit = servo_keys::home_after_joint_limit.fallback;
   // RELEASE ends once the gripper reports OPENING at least this share of its
   // full opening (the fruit is free), or OPEN; 1: wait for OPEN.
   double release_opening = servo_keys::release_opening.fallback;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <vector>
 
 #include "arm_goals.hpp"
@@ -163,6 +164,29 @@ TEST(PoseGoalPlanner, GoingHomeUsesTheHomePostureWithoutAnIkSearch) {
     EXPECT_NE(back.why.find("to the home posture"), std::string::npos) << back.why;
   }
   EXPECT_GT(joint_space, 0) << "no posture whose straight path home falls short";
+}
+
+// The way home resets the arm's redundancy: with the tool at the home pose but the joints in another branch (the
+// IK seeded where a full-tree run drifted, shoulder roll 150 deg), a goal at the home pose goes to the home posture
+// in joint space; with home_posture_tolerance 0 it goes the straight (here: no) way and stays in that branch.
+TEST(PoseGoalPlanner, TheWayHomeGoesBackToTheHomePostureFromAnotherBranch) {
+  RobotLinkConfig c = shipped();
+  constexpr double kDeg = std::numbers::pi / 180.0;
+  const Eigen::Isometry3d home = kinematics::tool_pose(c.model, c.model.home);
+  Eigen::VectorXd seed(7);
+  seed << 150.1, -66.3, -83.3, 83.9, -101.0, 31.9, -35.1;
+  const auto other = kinematics::solve_pose(c.model, home, seed * kDeg);
+  ASSERT_TRUE(other.has_value());
+  ASSERT_GT((*other - c.model.home).cwiseAbs().maxCoeff(), c.dry_run.home_posture_tolerance);
+  const CartesianTrajectory path(kinematics::tool_pose(c.model, *other), home, limits(c));
+  const PoseGoalPlan plan = plan_pose_goal(c, path, *other, Eigen::VectorXd::Zero(7));
+  std::printf("%s\n", plan.why.c_str());
+  ASSERT_EQ(plan.way, PoseGoalPlan::Way::kJointSpace) << plan.why;
+  EXPECT_EQ(plan.joints->goal(), c.model.home);
+  expect_same(run_sliced(c, path, *other).plan, plan);
+
+  c.dry_run.home_posture_tolerance = 0.0;
+  EXPECT_EQ(plan_pose_goal(c, path, *other, Eigen::VectorXd::Zero(7)).way, PoseGoalPlan::Way::kCartesian);
 }
 
 }  // namespace

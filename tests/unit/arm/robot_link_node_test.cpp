@@ -839,6 +839,7 @@ TEST(RobotLinkNode, WorkspaceBoundaryIsNeverCrossed) {
   EXPECT_GT(highest, wall - 2e-3) << "it did get to the boundary";
   EXPECT_TRUE(rig.last().fault_flags & kFlagLimited);
   EXPECT_NE(rig.last().fault_text.find("workspace boundary in z"), std::string::npos) << rig.last().fault_text;
+  EXPECT_FALSE(rig.last().fault_flags & kFlagJointLimit) << "the boundary is no joint limit";
   // Motion along the boundary goes on.
   const robot_state_t a = rig.last();
   rig.run(0.5, every_20ms(rig, twist_command(0.0, 0.02, 0.2)));
@@ -875,6 +876,29 @@ TEST(RobotLinkNode, JointLimitsAreRespected) {
   EXPECT_LE(highest, upper + 1e-6);
   EXPECT_GT(highest, upper - 2 * vmax[0] * 0.01) << "the joint did get to its limit (within two periods' motion)";
   EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
+}
+
+// A joint braking for its position limit (held at its stopping speed, the
+// others making up the twist) is reported as such: kFlagJointLimit, which the
+// servo controller reads (home before the next fruit).
+TEST(RobotLinkNode, AJointBrakingForItsLimitIsReported) {
+  RobotLinkConfig c = default_config();
+  c.model.joints[0].max = c.model.home[0] + 0.002;  // joint 1 starts 2 mrad below its limit
+  const Eigen::Vector3d dir = kinematics::tool_jacobian(c.model, c.model.home).col(0).head<3>().normalized();
+  const double upper = c.model.joints[0].max;
+  Rig rig(std::move(c));
+  rig.start();
+  EXPECT_FALSE(rig.last().fault_flags & kFlagJointLimit);
+  bool flagged = false;
+  double highest = -1e9;
+  rig.on_state([&](const robot_state_t& s) {
+    flagged = flagged || (s.fault_flags & kFlagJointLimit) != 0;
+    highest = std::max(highest, s.joint_position[0]);
+  });
+  rig.run(1.0, every_20ms(rig, twist_command(0.05 * dir.x(), 0.05 * dir.y(), 0.05 * dir.z())));
+  EXPECT_TRUE(flagged) << rig.describe_last();
+  EXPECT_LE(highest, upper + 1e-3);  // the drives lag their command by about a period: 0.5 mrad past, seen
+  EXPECT_TRUE(rig.last().fault_flags & kFlagLimited);
 }
 
 TEST(RobotLinkNode, PoseGoalIsReachedOnASmoothTrajectory) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "arm/fault_flags.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/ir_range_t.hpp"
@@ -90,6 +91,8 @@ void ArmDouble::step() {
   while (cameras_.front().first < now() - rt::kSecond) cameras_.pop_front();
   s.tool_twist = to_twist(v, w);
   s.fault_text = fault_ ? "joint 2 following error" : "";
+  if (spec_.arm_joint_limit_in_twists && valid && cmd_->type == robot_command_t::TYPE_TWIST && v.norm() > 0.0)
+    s.fault_flags |= arm::kFlagJointLimit | arm::kFlagLimited;
   publish(ch::kRobotState, s);
 }
 

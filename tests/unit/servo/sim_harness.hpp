@@ -73,6 +73,8 @@ struct WorldSpec {
   bool gripper_stuck = false;                       // never finishes closing (no HOLDING/CLOSED report)
   std::optional<double> arm_ignores_goals_after_s;  // pose goals are then acknowledged but never executed
   std::optional<double> arm_blocked_after_s;        // no command moves the arm any more (it reports MOVING)
+  bool arm_joint_limit_in_twists = false;           // every twist it follows reports kFlagJointLimit (as the robot link
+                                                    // does while a joint brakes for its limit)
   // A pose goal that keeps the tool where it is and turns it more than this
   // is acknowledged but never executed (no joint solution for that turn).
   std::optional<double> arm_max_turn_in_place;

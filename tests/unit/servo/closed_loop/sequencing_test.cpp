@@ -81,6 +81,32 @@ TEST(ClosedLoopSequencing, WithoutItTheArmReturnsHomeBetweenFruitAndTakesLonger)
   EXPECT_LT(t_straight, t_thesis - 0.5) << "straight " << t_straight << " s, thesis " << t_thesis << " s";
 }
 
+// After an approach during which the robot link reported a joint at its limit
+// (kFlagJointLimit), the next fruit waits for a trip home, where the link
+// returns to the home posture (on the tree the arm's redundancy drifted into a
+// branch with the shoulder roll at its limit and stalled approach after
+// approach); the flag is cleared there, so only one extra trip per episode.
+TEST(ClosedLoopSequencing, AJointAtItsLimitGoingInSendsTheArmHomeBeforeTheNextFruit) {
+  WorldSpec spec = two_fruit();
+  spec.arm_joint_limit_in_twists = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 90.0)) << loop.ctrl.machine().summary();
+  EXPECT_TRUE(loop.world.fruit_picked(1));
+  EXPECT_TRUE(loop.world.fruit_picked(2));
+  const auto states = published_states(loop);
+  EXPECT_EQ(after_first(states, "RETREAT"), "RETURN");
+  EXPECT_EQ(std::count(states.begin(), states.end(), "RETURN"), 2);
+  EXPECT_EQ(std::count(states.begin(), states.end(), "SELECT"), 3);
+
+  ServoConfig cfg = test_config();
+  cfg.home_after_joint_limit = false;
+  Loop off(spec, cfg);
+  off.start();
+  ASSERT_TRUE(off.run_until_state(State::kDone, 90.0)) << off.ctrl.machine().summary();
+  EXPECT_EQ(after_first(published_states(off), "RETREAT"), "ORIENT");
+}
+
 // A fruit given up before the gripper went in (not seen by the camera-in-hand)
 // leaves the tool out of the canopy, near home: the next fruit is turned to
 // from there too, not from home.
