@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 #include "closed_loop/loop.hpp"
 #include "servo/geometry.hpp"
@@ -105,6 +107,28 @@ TEST(ClosedLoopSequencing, AJointAtItsLimitGoingInSendsTheArmHomeBeforeTheNextFr
   off.start();
   ASSERT_TRUE(off.run_until_state(State::kDone, 90.0)) << off.ctrl.machine().summary();
   EXPECT_EQ(after_first(published_states(off), "RETREAT"), "ORIENT");
+}
+
+// The trip home clears it: a joint limit met on the first fruit only sends
+// the arm home once; from the second fruit on it turns straight again.
+TEST(ClosedLoopSequencing, TheTripHomeClearsTheJointLimitMet) {
+  WorldSpec spec = two_fruit();
+  spec.fruits.push_back({3, {-0.4126, 1.0114, -0.5289}, 0.075});
+  spec.arm_joint_limit_in_twists = true;
+  Loop loop(spec);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
+  loop.spec.arm_joint_limit_in_twists = false;  // the arm double reads the loop's spec
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 120.0)) << loop.ctrl.machine().summary();
+  for (int id : {1, 2, 3}) EXPECT_TRUE(loop.world.fruit_picked(id)) << id;
+  const auto states = published_states(loop);
+  std::vector<std::string> after_retreats;
+  for (std::size_t i = 0; i + 1 < states.size(); ++i)
+    if (states[i] == "RETREAT") after_retreats.push_back(states[i + 1]);
+  ASSERT_EQ(after_retreats.size(), 3u);
+  EXPECT_EQ(after_retreats[0], "RETURN");  // the limit met going in: home first
+  EXPECT_EQ(after_retreats[1], "ORIENT");  // cleared at home: straight on
+  EXPECT_EQ(after_retreats[2], "RETURN");  // nothing left
 }
 
 // A fruit given up before the gripper went in (not seen by the camera-in-hand)
