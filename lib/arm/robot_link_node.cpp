@@ -222,7 +222,6 @@ void RobotLinkNode::supervise() {
 
 Eigen::VectorXd RobotLinkNode::command_velocity(double dt) {
   limited_now_ = false;
-  joint_limited_now_ = false;
   const bool fresh = supervisor_.command_fresh(now());  // stale or no command: controlled stop
   CartesianStep step;
   // Joint-space motions, and the ramp to rest (no command, a stale one, a pose goal being planned).

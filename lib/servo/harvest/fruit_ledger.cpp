@@ -42,14 +42,16 @@ bool FruitLedger::selectable(int id, const Eigen::Vector3d& p, const std::option
     finished_sight_.erase(id);
     attempts_.erase(id);
   }
-  const auto near = [&](const Eigen::Vector3d& q) { return (q - p).norm() <= cfg_.same_fruit_distance; };
+  // The same fruit as one tried before: near where it was, or along its line of sight.
+  const auto same = [&](const Tried& t) {
+    return (t.at - p).norm() <= cfg_.same_fruit_distance || (t.sight && along(*t.sight));
+  };
   if (attempts(id) == 0) {
-    for (const Failed& f : failed_)
-      if (near(f.at) || (f.sight && along(*f.sight))) attempts_[id] = std::max(attempts_[id], f.attempts);
+    for (const Tried& t : tried_)
+      if (!t.given_up && same(t)) attempts_[id] = std::max(attempts_[id], t.attempts);
   }
   if (out_of_attempts(id)) return false;
-  if (std::any_of(given_up_.begin(), given_up_.end(), near) ||
-      std::any_of(given_up_sights_.begin(), given_up_sights_.end(), along)) {
+  if (std::any_of(tried_.begin(), tried_.end(), [&](const Tried& t) { return t.given_up && same(t); })) {
     finished_.insert(id);  // a fruit already given up, seen again under a new id
     finished_at_[id] = p;
     return false;
@@ -95,16 +97,12 @@ const fruit_outcome_t& FruitLedger::record(int8_t outcome, int id, const Eigen::
   const Eigen::Vector3d at = fruit ? fruit->selected_from : target;
   const std::optional<Eigen::Vector3d> sight =
       fruit && fruit->sight ? std::optional<Eigen::Vector3d>(fruit->sight->direction) : std::nullopt;
-  if (!out_of_attempts(id)) {
-    failed_.push_back({at, sight, attempts(id)});
-  } else {
+  const bool given_up = out_of_attempts(id);
+  tried_.push_back({at, sight, attempts(id), given_up});
+  if (given_up) {
     finished_.insert(id);
     finished_at_[id] = at;
-    given_up_.push_back(at);
-    if (sight) {
-      finished_sight_[id] = *sight;
-      given_up_sights_.push_back(*sight);
-    }
+    if (sight) finished_sight_[id] = *sight;
   }
   return outcomes_.back();
 }

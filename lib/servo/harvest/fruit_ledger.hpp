@@ -71,21 +71,21 @@ class FruitLedger {
   // (a neighbour once the fruit is picked), which is then a new fruit.
   std::map<int, Eigen::Vector3d> finished_at_;
   std::map<int, Eigen::Vector3d> finished_sight_;
-  // Fixed-camera positions and lines of sight (unit directions) of fruit
-  // given up: the tracker gives a fruit a new id after the arm has hidden
-  // it; a doubtful depth jumps by far more than same_fruit_distance from
-  // image to image, the direction does not.
-  std::vector<Eigen::Vector3d> given_up_;
-  std::vector<Eigen::Vector3d> given_up_sights_;
-  // Where attempts failed that did not yet give their fruit up, with the attempts made by then: the tracker may
-  // renumber the fruit before its next attempt, and the new id takes its attempts over (else a full-tree run
-  // tried one fruit 40 times under 40 ids until its time limit).
-  struct Failed {
+  // Every attempt that did not pick its fruit: where the fruit was (fixed
+  // camera, at selection), its line of sight (unit direction), the attempts
+  // made by then, and whether that gave the fruit up. The tracker gives a
+  // fruit a new id after the arm has hidden it (a doubtful depth jumps by far
+  // more than same_fruit_distance from image to image, the direction does
+  // not): a new id there is a fruit given up, or takes over the attempts of
+  // one not yet given up (else a full-tree run tried one fruit 40 times
+  // under 40 ids until its time limit).
+  struct Tried {
     Eigen::Vector3d at;
     std::optional<Eigen::Vector3d> sight;
     int attempts = 0;
+    bool given_up = false;
   };
-  std::vector<Failed> failed_;
+  std::vector<Tried> tried_;
   std::vector<fruit_outcome_t> outcomes_;
   Tally tally_;
 };
