@@ -127,6 +127,34 @@ TEST(IrGuidance, ANearerFruitInTheWayIsClosedOnOnlyNearTheAxis) {
   EXPECT_DOUBLE_EQ(s.offset, 0.020);
 }
 
+// Past a leaf read 10 mm ahead of the sensor, the sensor passes it after
+// 10 mm of travel; a grasp reading after that, with a nearer fruit filling
+// the hand image 20 mm off the axis, is that fruit (left, not pushed off by
+// the palm) or, 10 mm off, closed on. While the sensor is still short of the
+// leaf the same view changes nothing: it is the leaf's reading.
+TEST(IrGuidance, BeyondALeafTheNextReadingIsJudgedAfresh) {
+  const Fruit far = fruit(0.3, Fruit::Depth::kConfirmed);
+  IrGuidance g = guiding();
+  g.on_reading(reading(0.010), kT, true);
+  IrStep s = g.step(kT, tool_at(0.0), far, std::nullopt);
+  ASSERT_EQ(s.action, IrStep::Action::kAdvance);
+  ASSERT_TRUE(s.note.has_value());
+  g.on_reading(reading(0.005), kT + 10'000, true);
+  EXPECT_EQ(g.step(kT + 10'000, tool_at(0.005), fruit(0.295, Fruit::Depth::kConfirmed), 0.020).action,
+            IrStep::Action::kAdvance);  // still short of the leaf
+  g.on_reading(reading(0.010), kT + 20'000, true);
+  s = g.step(kT + 20'000, tool_at(0.012), fruit(0.288, Fruit::Depth::kConfirmed), 0.020);
+  EXPECT_EQ(s.action, IrStep::Action::kFruitInTheWay);
+  EXPECT_DOUBLE_EQ(s.offset, 0.020);
+  EXPECT_FALSE(s.note.has_value());
+  EXPECT_EQ(g.step(kT + 20'000, tool_at(0.012), fruit(0.288, Fruit::Depth::kConfirmed), 0.010).action,
+            IrStep::Action::kClose);
+  // With no fruit in view it is another leaf: passed, not noted again.
+  s = g.step(kT + 20'000, tool_at(0.012), fruit(0.288, Fruit::Depth::kConfirmed), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_FALSE(s.note.has_value());
+}
+
 TEST(IrGuidance, AnAttemptEndsOutOfTravelPastTheFruitOrBlocked) {
   IrGuidance g = guiding();
   g.on_reading(reading(0.2, ir_range_t::TOO_FAR), kT, true);
