@@ -25,6 +25,9 @@ not tuned on them. The decode threshold is chosen from a grid by F1: for
 fold k on the other folds' held-out photos only (nested: fold k's boxes never
 choose the threshold it is scored at; folds.csv carries it per image), for
 the final model on all folds' held-out photos (set it as detector.threshold).
+
+Tried and not kept (docs/perception.md, off by default): --jitter strong, --mosaic SHARE; --train-seed
+moves the training seeds and keeps the folds.
 """
 import argparse
 import csv
@@ -331,6 +334,7 @@ def main():
     ap.add_argument("--steps", type=int, default=1500)
     ap.add_argument("--folds", type=int, default=0, help="k-fold cross-validation first (0: none)")
     ap.add_argument("--seed", type=int, default=19)
+    ap.add_argument("--train-seed", type=int, help="seed of the training runs (default --seed; the folds stay --seed's)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--folds-only", action="store_true", help="skip the final model on all photos")
     ap.add_argument("--sim", action="append", default=[],
@@ -359,6 +363,7 @@ def main():
             f"centre error median {np.median(ce) if ce else float('nan'):.3f} D, "
             f"diameter error median {np.median(de) if de else float('nan'):.3f} D")
 
+    ts = a.seed if a.train_seed is None else a.train_seed
     train_with = lambda photos, seed: train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share,
                                               strong=a.jitter == "strong", mosaic_share=a.mosaic)
     if a.folds:
@@ -375,7 +380,7 @@ def main():
         for k in range(a.folds):
             test = [items[i] for i in sorted(order[k :: a.folds])]
             log(f"fold {k}: {len(test)} test photos: " + " ".join(it[0] for it in test))
-            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], a.seed + 1 + k)
+            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], ts + 1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
             preds = predict(net, test)
             per_fold.append({t: score(net, test, t, preds)[:3] for t in THRESHOLDS})
@@ -404,7 +409,7 @@ def main():
             " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")
     if a.folds_only:
         return
-    net = train_with(items, a.seed)
+    net = train_with(items, ts)
     export(net, a.out)
     if sim_test:
         report("final model on rendered frames", score(net, sim_test))

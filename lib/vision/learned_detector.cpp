@@ -61,35 +61,11 @@ cv::Mat LearnedDetector::forward(const cv::Mat3b& bgr) {
   return net_.forward().clone();
 }
 
-LearnedDetector::Maps LearnedDetector::split(const cv::Mat& raw) {
-  const int h = raw.size[2], w = raw.size[3];
-  Maps m{cv::Mat1f(h, w), cv::Mat1f(h, w), cv::Mat1f(h, w)};
+std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
+  const int h = maps.size[2], w = maps.size[3];
+  cv::Mat1f heat(h, w);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      m.heat(y, x) = static_cast<float>(sigmoid(at(raw, 0, y, x)));
-      m.log_diameter(y, x) = at(raw, 1, y, x);
-      m.mask(y, x) = static_cast<float>(sigmoid(at(raw, 2, y, x)));
-    }
-  return m;
-}
-
-LearnedDetector::Maps LearnedDetector::maps_of(const cv::Mat3b& input) {
-  Maps m = split(forward(input));
-  if (!config_.flip_average) return m;
-  cv::Mat3b mirrored;
-  cv::flip(input, mirrored, 1);
-  Maps f = split(forward(mirrored));
-  // The input width is a multiple of the stride, so cell x of the mirror is cell w-1-x of the frame.
-  for (cv::Mat1f* p : {&f.heat, &f.log_diameter, &f.mask}) cv::flip(*p, *p, 1);
-  m.heat = 0.5f * (m.heat + f.heat);
-  m.log_diameter = 0.5f * (m.log_diameter + f.log_diameter);
-  m.mask = 0.5f * (m.mask + f.mask);
-  return m;
-}
-
-std::vector<Fruit> LearnedDetector::peaks(const Maps& m) const {
-  const cv::Mat1f& heat = m.heat;
-  const int h = heat.rows, w = heat.cols;
+    for (int x = 0; x < w; ++x) heat(y, x) = static_cast<float>(sigmoid(at(maps, 0, y, x)));
   std::vector<Fruit> out;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -116,7 +92,7 @@ std::vector<Fruit> LearnedDetector::peaks(const Maps& m) const {
       Fruit f;
       f.u = (su / sw + 0.5) * kStride;
       f.v = (sv / sw + 0.5) * kStride;
-      f.diameter_px = kDiameterScale * std::exp(static_cast<double>(m.log_diameter(y, x)));
+      f.diameter_px = kDiameterScale * std::exp(static_cast<double>(at(maps, 1, y, x)));
       f.confidence = p;
       // Visible fraction: mean mask probability over the cells of the fruit's disc.
       const double r = 0.5 * f.diameter_px / kStride;
@@ -124,63 +100,41 @@ std::vector<Fruit> LearnedDetector::peaks(const Maps& m) const {
       for (int yy = std::max(0, int(std::floor(y - r))); yy <= std::min(h - 1, int(std::ceil(y + r))); ++yy)
         for (int xx = std::max(0, int(std::floor(x - r))); xx <= std::min(w - 1, int(std::ceil(x + r))); ++xx)
           if ((xx - x) * (xx - x) + (yy - y) * (yy - y) <= r * r) {
-            in += m.mask(yy, xx);
+            in += sigmoid(at(maps, 2, yy, xx));
             n += 1;
           }
       f.visible_fraction = n > 0 ? in / n : 0.0;
       out.push_back(f);
     }
-  return out;
-}
-
-std::vector<Fruit> LearnedDetector::merge(std::vector<Fruit> out) const {
   // A large fruit, wider than the net's receptive field, can peak more than
   // once. Two fruit centres closer than ~0.9 of the larger radius do not occur
   // among the 930 pairs of boxed fruit in the DeepFruits photos (a fruit that
   // far behind another is mostly hidden), so a weaker peak that close to a
   // kept one is the same fruit. Ties go by position: the order is total.
   std::stable_sort(out.begin(), out.end(), [](const Fruit& a, const Fruit& b) { return a.confidence > b.confidence; });
-  if (config_.merge_within <= 0) return out;
-  std::vector<Fruit> kept;
-  for (const Fruit& f : out) {
-    const bool same = std::any_of(kept.begin(), kept.end(), [&](const Fruit& k) {
-      const double reach = config_.merge_within * 0.5 * std::max(k.diameter_px, f.diameter_px);
-      return std::hypot(f.u - k.u, f.v - k.v) < reach;
-    });
-    if (!same) kept.push_back(f);
+  if (config_.merge_within > 0) {
+    std::vector<Fruit> kept;
+    for (const Fruit& f : out) {
+      const bool same = std::any_of(kept.begin(), kept.end(), [&](const Fruit& k) {
+        const double reach = config_.merge_within * 0.5 * std::max(k.diameter_px, f.diameter_px);
+        return std::hypot(f.u - k.u, f.v - k.v) < reach;
+      });
+      if (!same) kept.push_back(f);
+    }
+    out = std::move(kept);
   }
-  return kept;
-}
-
-std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const { return merge(peaks(split(maps))); }
-
-std::vector<Fruit> LearnedDetector::detect_at(const cv::Mat3b& bgr, int width, cv::Size& net) {
-  // Scale to `width`; both sides a multiple of the stride.
-  const double s = static_cast<double>(width) / bgr.cols;
-  net.width = std::max(kStride, width / kStride * kStride);
-  net.height = std::max(kStride, static_cast<int>(std::lround(bgr.rows * s)) / kStride * kStride);
-  cv::Mat3b in;
-  cv::resize(bgr, in, net, 0, 0, cv::INTER_LINEAR);
-  return peaks(maps_of(in));
+  return out;
 }
 
 std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
-  cv::Size net;
-  std::vector<Fruit> fruits = detect_at(bgr, config_.input_width, net);
-  const double sx = static_cast<double>(bgr.cols) / net.width, sy = static_cast<double>(bgr.rows) / net.height;
-  if (config_.half_scale_from > 0) {
-    // A fruit wider than the receptive field peaks weakly or several times at full scale; at half scale
-    // it is whole. Only the large fruit of the half-scale pass join (small ones are the full scale's).
-    cv::Size half;
-    for (Fruit f : detect_at(bgr, config_.input_width / 2, half)) {
-      const double hx = static_cast<double>(bgr.cols) / half.width, hy = static_cast<double>(bgr.rows) / half.height;
-      f.u *= hx / sx;  // into the full-scale network's pixels
-      f.v *= hy / sy;
-      f.diameter_px *= (hx + hy) / (sx + sy);
-      if (f.diameter_px >= config_.half_scale_from) fruits.push_back(f);
-    }
-  }
-  fruits = merge(std::move(fruits));
+  // Scale to the training width; both sides a multiple of the stride.
+  const double s = static_cast<double>(config_.input_width) / bgr.cols;
+  const int w = std::max(kStride, config_.input_width / kStride * kStride);
+  const int h = std::max(kStride, static_cast<int>(std::lround(bgr.rows * s)) / kStride * kStride);
+  cv::Mat3b in;
+  cv::resize(bgr, in, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);
+  std::vector<Fruit> fruits = decode(forward(in));
+  const double sx = static_cast<double>(bgr.cols) / w, sy = static_cast<double>(bgr.rows) / h;
   for (Fruit& f : fruits) {
     f.u *= sx;
     f.v *= sy;

@@ -35,16 +35,6 @@ inline constexpr Key<double> merge_within{
     "radii",
     "mode learned: a weaker peak this close to a stronger fruit's centre, in the larger of the two radii, is the "
     "same fruit (0: off)"};
-inline constexpr Key<bool> flip_average{
-    "flip_average", false, {}, "",
-    "mode learned: average the maps of the frame and of its mirror image (twice the network time)"};
-inline constexpr Key<double> half_scale_from{
-    "half_scale_from",
-    0.0,
-    {0.0, 4096.0},
-    "px",
-    "mode learned: also run the network at half input_width; its fruit this wide or wider (at input_width) join "
-    "the full-scale ones before the merge (0: off; a quarter more network time)"};
 }  // namespace learned_keys
 
 struct LearnedConfig {
@@ -52,8 +42,6 @@ struct LearnedConfig {
   int input_width = learned_keys::input_width.fallback;
   double threshold = learned_keys::threshold.fallback;
   double merge_within = learned_keys::merge_within.fallback;
-  bool flip_average = learned_keys::flip_average.fallback;
-  double half_scale_from = learned_keys::half_scale_from.fallback;
 };
 
 class LearnedDetector {
@@ -78,20 +66,6 @@ class LearnedDetector {
   std::vector<Fruit> decode(const cv::Mat& maps) const;
 
  private:
-  // Heatmap and mask probabilities and log diameter at 1/4 resolution.
-  struct Maps {
-    cv::Mat1f heat, log_diameter, mask;
-  };
-  Maps maps_of(const cv::Mat3b& input);  // forward, and with flip_average the mirrored frame's maps averaged in
-  static Maps split(const cv::Mat& raw);
-  // Peaks at or above the threshold, in the maps' input pixels, unmerged, in row-major order.
-  std::vector<Fruit> peaks(const Maps& m) const;
-  // Strongest first; a weaker one within merge_within of a kept one is dropped.
-  std::vector<Fruit> merge(std::vector<Fruit> fruits) const;
-  // Peaks of the frame scaled to `width`, in the pixels of the network's input (its size in `net`, both sides
-  // multiples of kStride).
-  std::vector<Fruit> detect_at(const cv::Mat3b& bgr, int width, cv::Size& net);
-
   LearnedConfig config_;
   cv::dnn::Net net_;
 };
