@@ -25,6 +25,9 @@ not tuned on them. The decode threshold is chosen from a grid by F1: for
 fold k on the other folds' held-out photos only (nested: fold k's boxes never
 choose the threshold it is scored at; folds.csv carries it per image), for
 the final model on all folds' held-out photos (set it as detector.threshold).
+
+Tried and not kept (docs/perception.md, off by default): --jitter strong, --mosaic SHARE; --train-seed
+moves the training seeds and keeps the folds.
 """
 import argparse
 import csv
@@ -38,7 +41,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
-from PIL import Image
+from PIL import Image, ImageFilter
 
 STRIDE = 4
 DIAM_SCALE = 32.0  # diameter channel is log(d / DIAM_SCALE), d in input pixels
@@ -129,19 +132,25 @@ def targets(h, w, boxes):
     return heat, diam, wdiam, mask, ignore
 
 
-def jitter(img, rng):
+def jitter(img, rng, strong=False):
     img = img.astype(np.float32)
+    if strong and rng.random() < 0.3:  # defocus / motion: a Gaussian blur of sigma up to 1.2 px
+        img = np.asarray(Image.fromarray(img.astype(np.uint8)).filter(
+            ImageFilter.GaussianBlur(rng.uniform(0.3, 1.2)))).astype(np.float32)
     gray = img.mean(axis=2, keepdims=True)
-    img = gray + (img - gray) * rng.uniform(0.6, 1.4)  # saturation
+    img = gray + (img - gray) * (rng.uniform(0.5, 1.5) if strong else rng.uniform(0.6, 1.4))  # saturation
     img = (img - img.mean()) * rng.uniform(0.7, 1.3) + img.mean()  # contrast
-    img = img * rng.uniform(0.6, 1.4) * rng.uniform(0.9, 1.1, size=3)  # brightness, white balance
+    bright = rng.uniform(0.6, 1.4)
+    img = img * bright * rng.uniform(*((0.85, 1.15) if strong else (0.9, 1.1)), size=3)  # brightness, white balance
+    if strong:  # gamma: shadows and highlights apart
+        img = 255 * (np.clip(img, 0, 255) / 255) ** rng.uniform(0.7, 1.4)
     img += rng.normal(0, rng.uniform(0, 6), img.shape)  # sensor noise
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def sample(item, crop, rng):
+def sample(item, crop, rng, strong=False, scale=(0.6, 1.6)):
     _, img, boxes = item
-    s = rng.uniform(0.6, 1.6)
+    s = rng.uniform(*scale)
     h, w = img.shape[:2]
     nw, nh = max(crop, int(w * s)), max(crop, int(h * s))
     s_x, s_y = nw / w, nh / h
@@ -156,7 +165,21 @@ def sample(item, crop, rng):
     # keep boxes whose centre lies in the crop (a cut fruit keeps its full-size box: the diameter is the fruit's)
     c = (b[:, :2] + b[:, 2:4]) / 2
     b = b[(c[:, 0] >= 0) & (c[:, 0] < crop) & (c[:, 1] >= 0) & (c[:, 1] < crop)]
-    return jitter(np.ascontiguousarray(im), rng), b
+    return jitter(np.ascontiguousarray(im), rng, strong), b
+
+
+def mosaic(items, crop, rng, strong=False):
+    """Four photos' crops of half the side, each at scale 0.5..1.2, tiled 2x2: more fruit, smaller and in other
+    surroundings, per sample (each box kept in the quadrant holding its centre)."""
+    half = crop // 2
+    im = np.zeros((crop, crop, 3), np.uint8)
+    out = []
+    for qy in (0, half):
+        for qx in (0, half):
+            q, b = sample(items[rng.integers(len(items))], half, rng, strong, scale=(0.5, 1.2))
+            im[qy : qy + half, qx : qx + half] = q
+            out.append(b + np.array([qx, qy, qx, qy, 0.0]))
+    return im, np.concatenate(out) if out else np.zeros((0, 5))
 
 
 def focal(logit, heat, ignore):
@@ -168,7 +191,7 @@ def focal(logit, heat, ignore):
     return (lp + ln) / pos.sum().clamp(min=1)
 
 
-def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0.0):
+def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0.0, strong=False, mosaic_share=0.0):
     """`sim`: rendered frames (harvest-sim-frames), drawn for a share `sim_share` of each batch's samples."""
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
@@ -181,7 +204,10 @@ def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0
         xs, ts = [], []
         for _ in range(batch):
             pool = sim if sim and rng.random() < sim_share else items
-            im, b = sample(pool[rng.integers(len(pool))], crop, rng)
+            if pool is items and mosaic_share > 0 and rng.random() < mosaic_share:
+                im, b = mosaic(items, crop, rng, strong)
+            else:
+                im, b = sample(pool[rng.integers(len(pool))], crop, rng, strong)
             xs.append(normalise(im))
             ts.append([torch.from_numpy(t) for t in targets(crop, crop, b)])
         x = torch.stack(xs)
@@ -308,11 +334,16 @@ def main():
     ap.add_argument("--steps", type=int, default=1500)
     ap.add_argument("--folds", type=int, default=0, help="k-fold cross-validation first (0: none)")
     ap.add_argument("--seed", type=int, default=19)
+    ap.add_argument("--train-seed", type=int, help="seed of the training runs (default --seed; the folds stay --seed's)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--folds-only", action="store_true", help="skip the final model on all photos")
     ap.add_argument("--sim", action="append", default=[],
                     help="folder of rendered frames (harvest-sim-frames) added to every model's training set")
     ap.add_argument("--sim-share", type=float, default=0.3, help="share of training samples drawn from --sim")
+    ap.add_argument("--jitter", choices=("basic", "strong"), default="basic",
+                    help="colour jitter: strong adds blur, gamma, wider saturation and white balance")
+    ap.add_argument("--mosaic", type=float, default=0.0,
+                    help="share of photo samples that are a 2x2 mosaic of four photos' crops (0: none)")
     ap.add_argument("--sim-test", help="folder of other rendered frames: every model is also scored on them")
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
@@ -332,7 +363,9 @@ def main():
             f"centre error median {np.median(ce) if ce else float('nan'):.3f} D, "
             f"diameter error median {np.median(de) if de else float('nan'):.3f} D")
 
-    train_with = lambda photos, seed: train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share)
+    ts = a.seed if a.train_seed is None else a.train_seed
+    train_with = lambda photos, seed: train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share,
+                                              strong=a.jitter == "strong", mosaic_share=a.mosaic)
     if a.folds:
         order = list(range(len(items)))
         random.Random(a.seed).shuffle(order)
@@ -347,7 +380,7 @@ def main():
         for k in range(a.folds):
             test = [items[i] for i in sorted(order[k :: a.folds])]
             log(f"fold {k}: {len(test)} test photos: " + " ".join(it[0] for it in test))
-            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], a.seed + 1 + k)
+            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], ts + 1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
             preds = predict(net, test)
             per_fold.append({t: score(net, test, t, preds)[:3] for t in THRESHOLDS})
@@ -376,7 +409,7 @@ def main():
             " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")
     if a.folds_only:
         return
-    net = train_with(items, a.seed)
+    net = train_with(items, ts)
     export(net, a.out)
     if sim_test:
         report("final model on rendered frames", score(net, sim_test))

@@ -40,6 +40,7 @@ DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
     c.learned.input_width = n.get(learned_keys::input_width);
     c.learned.threshold = n.get(learned_keys::threshold);
     c.learned.merge_within = n.get(learned_keys::merge_within);
+    c.learned.score_visible = n.get(learned_keys::score_visible);
     // Load it now: a bad file is an error at start (and for --check-config), not at the first frame.
     try {
       LearnedDetector check(c.learned);
@@ -85,7 +86,8 @@ config::Section DetectorConfig::schema(const std::string& path, const std::strin
   namespace k = detector_keys;
   namespace t = threshold_keys;
   namespace l = learned_keys;
-  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, t::cr_min,
+  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible,
+                         t::cr_min,
                          t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m,
                          k::kr, k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching,
                          k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments,

@@ -66,11 +66,14 @@ std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
   cv::Mat1f heat(h, w);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) heat(y, x) = static_cast<float>(sigmoid(at(maps, 0, y, x)));
+  // With score_visible the confidence is sqrt(peak x visible fraction) <= sqrt(peak): a peak under
+  // threshold^2 cannot reach the threshold.
+  const double floor = config_.score_visible ? config_.threshold * config_.threshold : config_.threshold;
   std::vector<Fruit> out;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float p = heat(y, x);
-      if (p < config_.threshold) continue;
+      if (p < floor) continue;
       bool peak = true;  // a 3x3 maximum (ties keep both, as max_pool == value does)
       for (int dy = -1; dy <= 1 && peak; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
@@ -104,6 +107,10 @@ std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
             n += 1;
           }
       f.visible_fraction = n > 0 ? in / n : 0.0;
+      if (config_.score_visible) {
+        f.confidence = std::sqrt(p * f.visible_fraction);
+        if (f.confidence < config_.threshold) continue;
+      }
       out.push_back(f);
     }
   // A large fruit, wider than the net's receptive field, can peak more than

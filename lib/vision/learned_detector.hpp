@@ -35,6 +35,10 @@ inline constexpr Key<double> merge_within{
     "radii",
     "mode learned: a weaker peak this close to a stronger fruit's centre, in the larger of the two radii, is the "
     "same fruit (0: off)"};
+inline constexpr Key<bool> score_visible{
+    "score_visible", false, {}, "",
+    "mode learned: a fruit's confidence, compared with threshold, is sqrt(peak x visible fraction) instead of the "
+    "peak (docs/perception.md: thresholds 0.4-0.45)"};
 }  // namespace learned_keys
 
 struct LearnedConfig {
@@ -42,6 +46,7 @@ struct LearnedConfig {
   int input_width = learned_keys::input_width.fallback;
   double threshold = learned_keys::threshold.fallback;
   double merge_within = learned_keys::merge_within.fallback;
+  bool score_visible = learned_keys::score_visible.fallback;
 };
 
 class LearnedDetector {

@@ -171,6 +171,25 @@ TEST(LearnedDetector, AWeakerPeakInsideAStrongerFruitIsTheSameFruit) {
   EXPECT_EQ(det.decode(hand_maps({{5, 5}, {8, 5}}, {-0.5f, 1.0f}, 40, {40, 16})).size(), 1u);
 }
 
+// score_visible: the confidence is sqrt(peak x visible fraction) and the threshold applies to it. Mask
+// logits 0: every disc is half visible, so at threshold 0.35 a peak of 0.31 passes (sqrt(0.155) = 0.394),
+// one of 0.18 does not (0.302); without the option only the peak of 0.73 passes.
+TEST(LearnedDetector, ScoreVisibleRanksByPeakAndVisibleFraction) {
+  const cv::Mat maps = hand_maps({{2, 2}, {12, 2}, {2, 12}}, {1.0f, -0.8f, -1.5f}, 16);
+  LearnedConfig plain = model(kModel);
+  plain.threshold = 0.35;
+  EXPECT_EQ(LearnedDetector(plain).decode(maps).size(), 1u);
+  LearnedConfig sv = plain;
+  sv.score_visible = true;
+  const std::vector<Fruit> f = LearnedDetector(sv).decode(maps);
+  ASSERT_EQ(f.size(), 2u);
+  const auto sig = [](double x) { return 1 / (1 + std::exp(-x)); };
+  EXPECT_NEAR(f[0].visible_fraction, 0.5, 1e-9);
+  EXPECT_NEAR(f[0].confidence, std::sqrt(sig(1.0) * 0.5), 1e-6);
+  EXPECT_NEAR(f[1].confidence, std::sqrt(sig(-0.8) * 0.5), 1e-6);
+  EXPECT_NEAR(f[1].u, 12.5 * 4, 1e-4);
+}
+
 TEST(LearnedDetector, NoConfidentFruitOnPlainLeaves) {
   FruitDetector det(DetectorConfig::learned_mode(kModel), kFx, kFy);
   for (const Fruit& f : det.detect(orchard_frame({})).fruits) EXPECT_LT(f.confidence, 0.4) << f.u << "," << f.v;
