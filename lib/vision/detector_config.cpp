@@ -86,13 +86,12 @@ config::Section DetectorConfig::schema(const std::string& path, const std::strin
   namespace k = detector_keys;
   namespace t = threshold_keys;
   namespace l = learned_keys;
-  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible,
-                         t::cr_min,
-                         t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m,
-                         k::kr, k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching,
-                         k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments,
-                         k::merge_max_gap_ratio, k::sky_cb_min, k::reject_shapes, k::min_roundness, k::min_solidity,
-                         k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
+  return config::section(
+      path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible, t::cr_min,
+      t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr, k::kd_per_m,
+      k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching, k::split_min_radius_px,
+      k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min,
+      k::reject_shapes, k::min_roundness, k::min_solidity, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
 }
 
 }  // namespace harvest::vision
