@@ -12,25 +12,10 @@ controller's summary just after the close.
 
     wind_closes.py LOG [--harvest-log build/bin/harvest-log]
 """
-import argparse, json, math, subprocess, sys, bisect
+import argparse, math, os, sys, bisect
 
-def export(hl, log, ch, fields=None):
-    cmd = [hl, "export", log, ch, "--format", "jsonl"]
-    if fields: cmd += ["--fields", fields]
-    out = subprocess.run(cmd, capture_output=True, text=True).stdout
-    return [json.loads(l) for l in out.splitlines() if l.strip()]
-
-def quat_rot(q):
-    w, x, y, z = q
-    return [[1-2*(y*y+z*z), 2*(x*y-w*z), 2*(x*z+w*y)],
-            [2*(x*y+w*z), 1-2*(x*x+z*z), 2*(y*z-w*x)],
-            [2*(x*z-w*y), 2*(y*z+w*x), 1-2*(x*x+y*y)]]
-
-def sub(a, b): return [a[i]-b[i] for i in range(3)]
-def to_tool(R, d): return [sum(R[r][c]*d[r] for r in range(3)) for c in range(3)]  # R^T d
-
-def get(m, pfx, n):
-    return [m[f"{pfx}[{i}]"] for i in range(n)]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from simlog import export, quat_rot, sub, to_tool, get
 
 ap = argparse.ArgumentParser()
 ap.add_argument("log")
