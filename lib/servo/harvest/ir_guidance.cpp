@@ -8,7 +8,7 @@
 namespace harvest::servo {
 
 void IrGuidance::reset_attempt(const Eigen::Vector3d& tool, rt::Micros now) {
-  passing_leaf_ = false;
+  leaf_at_.reset();
   leaf_noted_ = false;
   progress_at_ = now;
   progress_from_ = tool;
@@ -114,16 +114,15 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // 14 full-tree runs, the IR reading them at the grasp range and the hand
   // image filled with them).
   const double along = tool.translation().dot(tool.rotation().col(2));
-  if (passing_leaf_ && along >= leaf_at_) passing_leaf_ = false;
-  const bool in_front = !passing_leaf_ && fruit_in_front.has_value();
+  if (leaf_at_ && along >= *leaf_at_) leaf_at_.reset();
+  const bool in_front = !leaf_at_ && fruit_in_front.has_value();
   const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && fruit.depth != Fruit::Depth::kSize &&
                     ahead > cfg_.ir_vision_agreement && !in_front;
   if (leaf) {  // the leaf, not the fruit
-    if (!passing_leaf_) {
+    if (!leaf_at_) {
       const double range = folded_ && last_near_ ? *last_near_ : std::max(0.0, static_cast<double>(ir_->range_m));
       leaf_at_ = along + range;
     }
-    passing_leaf_ = true;
     folded_ = false;
     last_near_.reset();
   }

@@ -81,8 +81,9 @@ class IrGuidance {
   std::optional<ir_range_t> ir_;
   rt::Micros ir_rx_ = 0;
   int attempt_ = 0;
-  bool passing_leaf_ = false;        // going on past a leaf the IR reads in front of the fruit ...
-  double leaf_at_ = 0.0;             // ... there along the tool axis (tool position + range, as Surface::at)
+  // Going on past a leaf the IR read in front of the fruit, there along the
+  // tool axis (tool position + range, as Surface::at); unset once the sensor is past it.
+  std::optional<double> leaf_at_;
   bool leaf_noted_ = false;          // this attempt has gone past a leaf (noted once)
   std::optional<double> last_near_;  // last IR range just above the grasp range in this attempt [m]
   bool folded_ = false;              // ... followed by a jump far beyond it: the sensor folded back
