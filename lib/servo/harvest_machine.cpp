@@ -29,7 +29,8 @@ HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrat
       hand_(cfg_),
       ir_(cfg_),
       orientation_law_({cfg_.gains.kp_orient, cfg_.gains.kd_orient, cfg_.gains.derivative_filter}),
-      sway_(cfg_.sway) {}
+      sway_(cfg_.sway),
+      tree_(cfg_.sway) {}
 
 // ---------------------------------------------------------------- transitions
 
@@ -263,6 +264,7 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     out.status_changed = !fixed_;
     fixed_ = msg;
     fixed_rx_ = now;
+    tree_.add(msg);
   } else if (current_) {
     hand_.on_hand_targets(msg, *current_, image_camera(msg.header.utime), now);
   }
@@ -569,7 +571,7 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
     case IrStep::Action::kClose: {
       // A swaying fruit: closed on when it is predicted on the gripper axis as the jaws meet; held still until then.
       if (!close_wait_since_) close_wait_since_ = now;
-      const SwayFit fit = sway_.fit();
+      const SwayFit fit = tree_still(now) ? SwayFit{} : sway_.fit();  // still: at once, as without wind
       const double waited = rt::to_seconds(now - *close_wait_since_);
       const CloseDecision d = close_decision(fit, t, rt::to_seconds(now), waited, cfg_.tick_period_s, cfg_.sway);
       if (!d.close) {
@@ -617,6 +619,17 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
     // measured from a doubtful depth, and the hand camera's views of it are pieces.
     const double spread = sway_.spread();
     if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing) return std::nullopt;
+    // The fixed camera, standing still, sees the tree still: the spread is the moving hand camera's.
+    if (tree_still(now)) {
+      const TreeSwayGauge::Reading& tree = tree_.reading();
+      held_ = true;
+      note_ = fmt::format(
+          "looked to sway ({:.0f} mm rms across the axis), but the tree is still ({:.1f} mm rms "
+          "over {} fruit in the fixed camera): no hold",
+          spread * 1e3, tree.rms * 1e3, tree.fruit);
+      out.status_changed = true;
+      return std::nullopt;
+    }
     const double ahead = ahead_along_axis(tool, current_->estimate);
     if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
     if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on
@@ -657,6 +670,11 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
                  : fmt::format("held {:.1f} s: going in", rt::to_seconds(held_for));
   out.status_changed = true;
   return std::nullopt;
+}
+
+bool HarvestMachine::tree_still(rt::Micros now) const {
+  return tree_.reading().verdict == TreeSwayGauge::Verdict::kStill &&
+         now - fixed_rx_ <= rt::from_seconds(cfg_.sway.tree_window);  // a verdict no older than its window
 }
 
 void HarvestMachine::feed_sway(rt::Micros now) {

@@ -49,6 +49,7 @@
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
 #include "servo/harvest/sway.hpp"
+#include "servo/harvest/tree_sway.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
@@ -78,7 +79,8 @@ class HarvestMachine {
     // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
     // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
     ir_.on_reading(msg, now,
-                   state_ == State::kIrApproach && (still_after_all_ || sway_.spread() <= cfg_.sway.hold_spread));
+                   state_ == State::kIrApproach &&
+                       (still_after_all_ || tree_still(now) || sway_.spread() <= cfg_.sway.hold_spread));
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
@@ -152,6 +154,8 @@ class HarvestMachine {
   void feed_sway(rt::Micros now);
   // Whether IR guidance stands off the current fruit now, and how far (sway.hold_*).
   std::optional<double> sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out);
+  // The fixed camera's gauge says the tree is still, from TARGETS no older than its window.
+  bool tree_still(rt::Micros now) const;
 
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
@@ -196,6 +200,7 @@ class HarvestMachine {
   IrGuidance ir_;
   OrientationLaw orientation_law_;
   SwayEstimator sway_;
+  TreeSwayGauge tree_;                          // whether the tree sways, from the fixed camera
   rt::Micros sway_fed_ = 0;                     // the newest hand image the estimator has (its utime)
   std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
   std::optional<rt::Micros> hold_since_;        // standing off the swaying current fruit since ...

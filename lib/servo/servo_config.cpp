@@ -158,6 +158,12 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.hold_check = sw.get(ks::hold_check);
   c.sway.still_spread = sw.get(ks::still_spread);
   c.sway.max_wait = sw.get(ks::max_wait);
+  c.sway.tree_window = sw.get(ks::tree_window);
+  c.sway.tree_min_span = sw.get(ks::tree_min_span);
+  c.sway.tree_min_fruit = sw.get(ks::tree_min_fruit);
+  c.sway.tree_quantile = sw.get(ks::tree_quantile);
+  c.sway.tree_still_rms = sw.get(ks::tree_still_rms);
+  if (c.sway.tree_min_span > c.sway.tree_window) sw.fail("tree_min_span", "a span no longer than tree_window");
   if (c.sway.max_frequency_hz < c.sway.min_frequency_hz)
     sw.fail("max_frequency_hz", "a frequency no lower than min_frequency_hz");
 
@@ -226,7 +232,8 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit,
                       k::sway::max_centre_offset, k::sway::close_delay, k::sway::close_tolerance, k::sway::hold_spread,
                       k::sway::hold_standoff, k::sway::hold_time, k::sway::hold_check, k::sway::still_spread,
-                      k::sway::max_wait),
+                      k::sway::max_wait, k::sway::tree_window, k::sway::tree_min_span, k::sway::tree_min_fruit,
+                      k::sway::tree_quantile, k::sway::tree_still_rms),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
                       k::tbz::desired_wait_s, k::tbz::arrived_rotation, k::tbz::arrived_translation),

@@ -169,6 +169,14 @@ void WorldDouble::publish_fixed() {
     for (int k = 0; k < 3; ++k) t.position_base[k] = p[k];
     t.covariance_base[0] = t.covariance_base[4] = t.covariance_base[8] = 0.05 * 0.05;
     t.diameter_m = 0.075;
+    // Its image: a pinhole (f 300 px, 320 x 240) at fixed_camera looking along base +y, toward the tree; what
+    // the controller's tree gauge reads (the fruit's true position: the detector's centroid does not scale).
+    const Eigen::Vector3d seen = position(i) - spec_.fixed_camera;
+    if (seen.y() > 0.05) {
+      t.u_px = static_cast<float>(160.0 + 300.0 * seen.x() / seen.y());
+      t.v_px = static_cast<float>(120.0 + 300.0 * seen.z() / seen.y());
+      t.diameter_px = static_cast<float>(300.0 * f.diameter / seen.y());
+    }
     t.confidence = 1.0f;
     t.cost = static_cast<float>(i);
     m.targets.push_back(t);

@@ -102,5 +102,37 @@ TEST(ClosedLoop, AStillFruitThatLookedToSwayIsGoneInOnEarly) {
   EXPECT_LE(still - held, cfg.sway.hold_check + 0.3);
 }
 
+// The tree gauge (sway.tree_*): the fixed camera, standing still, sees the fruit still, so one that looked to sway
+// to the moving hand camera (hold_spread far below its noise, as above) is not held at all; the swaying fruit of
+// SwayingFruit, seen swaying by the fixed camera too, is held as before. One fruit stands for the tree here
+// (tree_min_fruit 1), over a short window (the approach begins about 2 s after the start).
+ServoConfig gauged() {
+  ServoConfig cfg = test_config();
+  cfg.sway.tree_min_fruit = 1;
+  cfg.sway.tree_window = 1.5;
+  cfg.sway.tree_min_span = 1.0;
+  return cfg;
+}
+
+TEST(ClosedLoop, AStillTreeHoldsNoFruitThatLookedToSway) {
+  ServoConfig cfg = gauged();
+  cfg.sway.hold_spread = 0.00005;
+  Loop loop(experiment_one(), cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  EXPECT_TRUE(ever_noted(loop, "but the tree is still (0.0 mm rms over 1 fruit in the fixed camera): no hold"));
+  EXPECT_FALSE(ever_noted(loop, "): held"));
+}
+
+TEST(ClosedLoop, ASwayingTreeStillHoldsItsFruit) {
+  Loop loop(swaying(2.0), gauged());
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+  EXPECT_TRUE(ever_noted(loop, "mm rms across the axis): held"));
+  EXPECT_FALSE(ever_noted(loop, "the tree is still"));
+}
+
 }  // namespace
 }  // namespace harvest::servo::testing
