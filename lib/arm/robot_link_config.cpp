@@ -3,6 +3,7 @@
 #include <string>
 
 #include "geometry/envelope.hpp"
+#include "geometry/transform_file.hpp"
 
 namespace harvest::arm {
 
@@ -11,6 +12,16 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   RobotLinkConfig c;
   c.bus = canopen::bus_from_config(root, canopen::kBusKey);
   c.model = kinematics::ArmModel::load(root.get(k::arm_model).string());
+  // The model is the arm's type, shared by every robot of it; where this robot's camera-in-hand sits is its own
+  // calibration (docs/calibration.md), kept beside the robot's other site files.
+  if (root.has(k::hand_eye.name) && !root.get<std::string>(k::hand_eye.name, "").empty()) {
+    const auto file = root.get(k::hand_eye);
+    try {
+      c.model.camera = c.model.tool * geometry::load_transform_file(file, geometry::Handedness::kProper);
+    } catch (const std::exception& e) {
+      root.fail("hand_eye", std::string("a readable hand-eye calibration (") + e.what() + ")");
+    }
+  }
   c.can = canopen::MasterConfig::from_config(root.child("can"));
   if (static_cast<int>(c.can.drives.size()) != c.model.dof())
     root.child("can").fail("drives", "one drive per joint of the arm model (" + std::to_string(c.model.dof()) + ")");
@@ -53,14 +64,16 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
 std::vector<config::Section> RobotLinkConfig::schema() {
   namespace k = link_keys;
   const std::string where = "harvest-robot-link, config/arm/robot_link.yaml (docs/robot-link.md).";
-  std::vector<config::Section> out{config::section("robot_link", where, canopen::kBusKey, k::arm_model, k::envelope)};
+  std::vector<config::Section> out{
+      config::section("robot_link", where, canopen::kBusKey, k::arm_model, k::hand_eye, k::envelope)};
   for (auto& s : canopen::MasterConfig::schema("robot_link.can", where)) out.push_back(std::move(s));
   out[1].keys.push_back(config::describe(k::quick_stop_deceleration_factor));
   out.push_back(config::section("robot_link.limits", where, k::default_validity_ms, k::max_validity_ms,
                                 k::min_goal_linear_speed, k::min_goal_angular_speed, k::non_physical_factor));
   out.push_back(config::section("robot_link.control", where, k::position_gain, k::orientation_gain, k::joint_gain,
                                 k::enable_timeout_ms, k::realtime_priority));
-  out.push_back(security::AuthorityConfig::schema("robot_link.authority", where, security::AuthorityConfig::kController));
+  out.push_back(
+      security::AuthorityConfig::schema("robot_link.authority", where, security::AuthorityConfig::kController));
   return out;
 }
 

@@ -23,6 +23,12 @@ using config::Key;
 using config::Path;
 inline constexpr Key<Path> arm_model{
     "arm_model", "k1207i.yaml", {}, "", "the arm model: DH parameters, joint limits, tool and camera offsets, home"};
+inline constexpr Key<Path> hand_eye{"hand_eye",
+                                    "",
+                                    {},
+                                    "",
+                                    "this robot's camera-in-hand in the tool frame as harvest-calibrate hand-eye wrote "
+                                    "it, instead of the arm model's camera (empty: the arm model's)"};
 inline constexpr Key<Path> envelope{
     "envelope", "envelope.yaml", {}, "", "the robot envelope: workspace box, speed and acceleration limits"};
 inline constexpr Key<double> quick_stop_deceleration_factor{

@@ -38,6 +38,30 @@ TEST(RobotLinkConfig, ShippedFileLoads) {
   EXPECT_LE(c.limits.default_validity, c.limits.max_validity);
 }
 
+// A robot's own hand-eye calibration replaces the arm model's camera: the camera sits in the flange frame at
+// tool x file, as the model's `camera.calibration` puts it. The simulated robot's measured file against the
+// hand-measured one the model reads: translations as in the files, in the tool frame. A missing file is refused
+// at load, naming the key and the file.
+TEST(RobotLinkConfig, ARobotsOwnHandEyeReplacesTheArmModelsCamera) {
+  auto shipped = robot_link_file("");
+  const auto model = RobotLinkConfig::from_config(shipped.root()).model;
+  auto own = robot_link_file("hand_eye=../cameras/hand_eye_sim.yaml");
+  const auto c = RobotLinkConfig::from_config(own.root());
+  own.check_unused();
+  const Eigen::Vector3d model_cam = (model.tool.inverse() * model.camera).translation() * 1e3;
+  const Eigen::Vector3d own_cam = (c.model.tool.inverse() * c.model.camera).translation() * 1e3;
+  EXPECT_NEAR((model_cam - Eigen::Vector3d(15, -10, -40)).norm(), 0.0, 1e-9) << model_cam.transpose();
+  EXPECT_NEAR((own_cam - Eigen::Vector3d(14.8327733737, -10.5480609998, -48.0772345987)).norm(), 0.0, 1e-6)
+      << own_cam.transpose();
+  EXPECT_GT(Eigen::AngleAxisd((c.model.tool.inverse() * c.model.camera).rotation()).angle(), 0.03);  // 1.8 deg
+  EXPECT_EQ(c.model.joints.size(), model.joints.size());  // the rest is the model's
+
+  auto missing = robot_link_file("hand_eye=../cameras/nothere.yaml");
+  const std::string e = error_of([&] { RobotLinkConfig::from_config(missing.root()); });
+  EXPECT_NE(e.find("hand_eye"), std::string::npos) << e;
+  EXPECT_NE(e.find("nothere.yaml"), std::string::npos) << e;
+}
+
 TEST(RobotLinkConfig, DefaultValidityLongerThanTheMaximumIsRefused) {
   auto doc = robot_link_file("limits.max_validity_ms=50");  // the file's default is 100 ms
   const std::string e = error_of([&] { RobotLinkConfig::from_config(doc.root()); });
