@@ -79,8 +79,7 @@ class HarvestMachine {
     // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
     // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
     ir_.on_reading(msg, now,
-                   state_ == State::kIrApproach &&
-                       (still_after_all_ || tree_still(now) || sway_.spread() <= cfg_.sway.hold_spread));
+                   state_ == State::kIrApproach && (still_after_all_ || sway_.spread() <= cfg_.sway.hold_spread));
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
