@@ -136,11 +136,11 @@ inline constexpr Key<double> hold_time{"hold_time", 2.5, {0.0, 30.0}, "s", "... 
 inline constexpr Key<double> hold_check{"hold_check", 0.8, {0.0, 30.0}, "s", "> 0: after this long held, the views since the hold began decide early: spread less than still_spread, the fruit is still after all; no whole view, nothing to watch; either way it goes in (0: always the whole hold_time)"};
 inline constexpr Key<double> still_spread{"still_spread", 0.002, {0.0, 1.0}, "m", "... the spread (rms about their mean) below which the held fruit is still"};
 inline constexpr Key<double> max_wait{"max_wait", 0.0, {0.0, 10.0}, "s", "... or nearest within this wait, held still at the grasp range (0: close at once, no timing)"};
-inline constexpr Key<double> tree_window{"tree_window", 4.0, {0.0, 60.0}, "s", "the tree gauge: the fixed camera (it stands still) watches every fruit's centroid this long (0: no gauge, every fruit may be held) ..."};
+inline constexpr Key<double> tree_window{"tree_window", 4.0, {0.0, 60.0}, "s", "the tree gauge: the fixed camera (it stands still) watches every fruit's centroid this long (0: no gauge) ..."};
 inline constexpr Key<double> tree_min_span{"tree_min_span", 3.0, {0.0, 60.0}, "s", "... a fruit counts once its views span this long (at most tree_window) ..."};
-inline constexpr Key<int> tree_min_fruit{"tree_min_fruit", 3, {1, 1000}, "", "... and with fewer fruit counted the gauge cannot tell (the hold decides per fruit, as without it) ..."};
+inline constexpr Key<int> tree_min_fruit{"tree_min_fruit", 3, {1, 1000}, "", "... and with fewer fruit counted the gauge cannot tell (the hold runs as without it) ..."};
 inline constexpr Key<double> tree_quantile{"tree_quantile", 0.25, {0.0, 1.0}, "", "... the fruit at this quantile of the centroids' spread (rms, in metres at the fruit) stands for the tree: the arm passing in front of a few moves their centroids, wind moves all ..."};
-inline constexpr Key<double> tree_still_rms{"tree_still_rms", 0.004, {0.0, 1.0}, "m", "... below this the tree is still and no fruit is held for its sway (still trees 0.2-0.8 mm at the quarter, tree_wind 15 mm at 0.4 Hz 8-11 mm)"};
+inline constexpr Key<double> tree_still_rms{"tree_still_rms", 0.004, {0.0, 1.0}, "m", "... below this the tree is still: a hold for a sway ends at hold_check whatever the held views spread, and the close is not timed (still trees 0.2-0.8 mm at the quarter, tree_wind 15 mm at 0.4 Hz 8-11 mm)"};
 }  // namespace sway
 namespace tbz {  // approach_mode tbz
 inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {0.0, 100.0}, "1/s", "rotation gain (eq. 5-44)"};
