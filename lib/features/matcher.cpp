@@ -106,8 +106,8 @@ HARVEST_SIMD_DISPATCH(hamming_nearest_2, hamming_nearest_impl, void,
 // the same selection as above in the same order. Distances are integers, so
 // the result is identical to the other builds'.
 __attribute__((target("avx512f,avx512vpopcntdq"))) void hamming_nearest_vpopcnt(const uint8_t* d, int nd,
-                                                                                 const uint8_t* c, int nc,
-                                                                                 Nearest& out) {
+                                                                                const uint8_t* c, int nc,
+                                                                                Nearest& out) {
   const auto n8 = static_cast<std::size_t>((nc + 7) / 8 * 8);
   std::vector<uint64_t> w(4 * n8, 0);
   for (std::size_t j = 0; j < static_cast<std::size_t>(nc); ++j)
@@ -223,9 +223,9 @@ DesiredImageMatcher::DesiredImageMatcher(MatcherParams params) : params_(std::mo
   params_.min_inliers = std::max(params_.min_inliers, 4);
   orb_ = cv::ORB::create(params_.orb_features, static_cast<float>(params_.orb_scale), params_.orb_levels, 31, 0, 2,
                          cv::ORB::HARRIS_SCORE, 31, params_.fast_threshold);
-  orb_current_ = cv::ORB::create(params_.current_features, static_cast<float>(params_.orb_scale),
-                                 params_.current_levels, 31, 0, 2, cv::ORB::HARRIS_SCORE, 31,
-                                 params_.current_fast_threshold);
+  orb_current_ =
+      cv::ORB::create(params_.current_features, static_cast<float>(params_.orb_scale), params_.current_levels, 31, 0, 2,
+                      cv::ORB::HARRIS_SCORE, 31, params_.current_fast_threshold);
 }
 
 void DesiredImageMatcher::set_desired(const cv::Mat1b& gray, const cv::Rect& region) {
