@@ -12,6 +12,7 @@ repetitions (wall time on a shared machine measures the other processes).
 usage: bench_report.py OUT.json [OUT.json ...]
 """
 import json
+import os
 import re
 import sys
 
@@ -23,6 +24,8 @@ def load(paths):
     """{(job, args): {impl: entry}} from the median aggregates (or single runs)."""
     runs = {}
     for path in paths:
+        if os.path.getsize(path) == 0:
+            continue  # a binary whose benchmarks the filter left out writes nothing
         with open(path) as f:
             data = json.load(f)
         for b in data.get("benchmarks", []):
