@@ -5,12 +5,14 @@ Benchmarks named BM_<job>_<impl>[/args] are paired by job and args: the
 `Ours` one against each other implementation (OpenCV, ViSP, Eigen) of the
 same job. A counter `target_ratio` on the Ours benchmark is the largest
 ours/theirs ratio we accept; `target_ms` is an absolute target for a job
-with nothing to compare against. Times are the median CPU time over the
+with nothing to compare against (its line also shows counters `inliers`,
+`rms_px`, `worst_rms_px` when the job reports its accuracy). Times are the median CPU time over the
 repetitions (wall time on a shared machine measures the other processes).
 
 usage: bench_report.py OUT.json [OUT.json ...]
 """
 import json
+import os
 import re
 import sys
 
@@ -22,6 +24,8 @@ def load(paths):
     """{(job, args): {impl: entry}} from the median aggregates (or single runs)."""
     runs = {}
     for path in paths:
+        if os.path.getsize(path) == 0:
+            continue  # a binary whose benchmarks the filter left out writes nothing
         with open(path) as f:
             data = json.load(f)
         for b in data.get("benchmarks", []):
@@ -49,6 +53,17 @@ def fmt(t_ms):
     return f"{t_ms * 1e3:8.1f} us"
 
 
+def accuracy(entry):
+    """The accuracy a job reports beside its time (counters inliers, rms_px, worst_rms_px)."""
+    if "rms_px" not in entry:
+        return ""
+    text = f"  ({entry['inliers']:.0f} inliers" if "inliers" in entry else "  ("
+    text += f", transfer rms {entry['rms_px']:.3f} px"
+    if "worst_rms_px" in entry:
+        text += f", worst {entry['worst_rms_px']:.3f}"
+    return text + ")"
+
+
 def main(paths):
     runs = load(paths)
     lines, failed = [], 0
@@ -74,7 +89,7 @@ def main(paths):
             ok = ms(ours) <= ours["target_ms"]
             failed += not ok
             lines.append(f"{label:<22} ours {fmt(ms(ours))} | {'':<6} {'':>11} | {'':>7}  "
-                         f"target <= {ours['target_ms']:g} ms  {'ok' if ok else 'MISSED'}")
+                         f"target <= {ours['target_ms']:g} ms  {'ok' if ok else 'MISSED'}{accuracy(ours)}")
     if not lines:
         print("bench_report: no BM_<job>_Ours benchmarks in the output", file=sys.stderr)
         return 1

@@ -2,15 +2,16 @@
 // teach by zooming, thesis chapter 5) and the current camera-in-hand image.
 //
 // 1. ORB keypoints and binary descriptors in both images (OpenCV
-//    features2d), nearest-neighbour matching with Lowe's ratio test and a
-//    mutual-best check.
+//    features2d; the desired image's over a scale pyramid, once, the
+//    current frame's at one scale by default), nearest-neighbour matching
+//    with Lowe's ratio test and a mutual-best check.
 // 2. Geometric verification: our RANSAC homography (lib/geometry) from the
 //    desired to the current image; the target is planar (a sticker, a
 //    patch of fruit), so consistent matches obey one homography.
 // 3. Optional sub-pixel refinement: the current image is warped into the
-//    desired image with the homography, the desired inliers are tracked into
-//    it with our pyramidal Lucas-Kanade, mapped back, and the homography is
-//    refitted.
+//    desired image with the homography (only tiles around the inliers), the
+//    desired inliers are tracked into it with our Lucas-Kanade, mapped
+//    back, and the homography is refitted.
 // 4. Frame to frame (`track`): once a frame is verified, the next one is not
 //    detected afresh. The desired image's Shi-Tomasi corners are followed
 //    into it instead: the new image is warped into the desired one with the
@@ -34,10 +35,19 @@
 namespace harvest::features {
 
 struct MatcherParams {
-  int orb_features = 1000;  // keypoints per image
-  int orb_levels = 8;       // ORB scale pyramid
+  // The desired image's ORB keypoints (found once, when it arrives).
+  int orb_features = 1000;  // keypoints
+  int orb_levels = 6;       // ORB scale pyramid: matches a current frame 1.2^5 = 2.5 times smaller
   double orb_scale = 1.2;
   int fast_threshold = 10;
+  // The current frame's (every frame detected afresh: the cost that
+  // counts). The desired image is a zoom of the target, so the current
+  // frame sees it at most a little larger than the desired image does and
+  // usually smaller: the desired image's pyramid covers the scale range,
+  // the current frame needs few levels of its own.
+  int current_features = 300;
+  int current_levels = 1;
+  int current_fast_threshold = 20;
   double ratio = 0.8;  // Lowe ratio test
   bool mutual = true;  // keep only mutual best matches
   double ransac_threshold_px = 3.0;
@@ -88,6 +98,19 @@ struct MatchResult {
   bool ok() const { return status == MatchStatus::kOk; }
 };
 
+namespace detail {
+// Brute-force Hamming matching of 32-byte descriptors (ORB): for every
+// desired row the best and second-best current row, for every current row
+// the best desired row; ties keep the lower index. `simd`: the AVX2 or the
+// AVX-512 VPOPCNTDQ build where the CPU has it, else the portable one (all
+// give the same result: exposed for that test).
+struct Nearest {
+  std::vector<int> best, second_dist, best_dist;  // per desired row
+  std::vector<int> back;                          // per current row: best desired row
+};
+void hamming_nearest(bool simd, const uint8_t* desired, int nd, const uint8_t* current, int nc, Nearest& out);
+}  // namespace detail
+
 class DesiredImageMatcher {
  public:
   explicit DesiredImageMatcher(MatcherParams params);
@@ -112,7 +135,7 @@ class DesiredImageMatcher {
   MatchResult track(const cv::Mat1b& current, const cv::Rect& region, const Disc& face, const cv::Matx33d& G) const;
 
   MatcherParams params_;
-  cv::Ptr<cv::ORB> orb_;
+  cv::Ptr<cv::ORB> orb_, orb_current_;
   cv::Mat1b desired_;
   Pyramid desired_pyr_;
   std::vector<cv::KeyPoint> desired_kp_;

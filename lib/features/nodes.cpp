@@ -41,10 +41,16 @@ constexpr Key<int> min_features{"min_features", 30, {0, 10000}, "",
                                 "replenish when fewer are tracked (at most max_features)"};
 }  // namespace kt
 namespace km {  // matcher
-constexpr Key<int> orb_features{"orb_features", 1000, {10, 100000}, "", "ORB keypoints per image"};
-constexpr Key<int> orb_levels{"orb_levels", 8, {1, 16}, "", "ORB scale pyramid levels"};
+constexpr Key<int> orb_features{"orb_features", 1000, {10, 100000}, "", "ORB keypoints of the desired image"};
+constexpr Key<int> orb_levels{"orb_levels", 6, {1, 16}, "",
+                              "its ORB scale pyramid levels (the current frame may see the target this much smaller)"};
 constexpr Key<double> orb_scale{"orb_scale", 1.2, {1.01, 2.0}, "", "ORB pyramid scale step"};
-constexpr Key<int> fast_threshold{"fast_threshold", 10, {1, 255}, "", "FAST corner threshold"};
+constexpr Key<int> fast_threshold{"fast_threshold", 10, {1, 255}, "", "its FAST corner threshold"};
+constexpr Key<int> current_features{"current_features", 300, {10, 100000}, "",
+                                    "ORB keypoints of a current frame detected afresh"};
+constexpr Key<int> current_levels{"current_levels", 1, {1, 16}, "",
+                                  "its ORB scale pyramid levels (more: matches when it sees the target larger)"};
+constexpr Key<int> current_fast_threshold{"current_fast_threshold", 20, {1, 255}, "", "its FAST corner threshold"};
 constexpr Key<double> ratio{"ratio", 0.8, {0.1, 1.0}, "", "Lowe ratio test"};
 constexpr Key<bool> mutual{"mutual", true, {}, "", "keep only mutual best matches"};
 constexpr Key<double> ransac_threshold_px{"ransac_threshold_px", 3.0, {0.01, 100.0}, "px",
@@ -120,6 +126,9 @@ MatcherParams matcher_params_from_yaml(const config::Node& n) {
   p.orb_levels = n.get(km::orb_levels);
   p.orb_scale = n.get(km::orb_scale);
   p.fast_threshold = n.get(km::fast_threshold);
+  p.current_features = n.get(km::current_features);
+  p.current_levels = n.get(km::current_levels);
+  p.current_fast_threshold = n.get(km::current_fast_threshold);
   p.ratio = n.get(km::ratio);
   p.mutual = n.get(km::mutual);
   p.ransac_threshold_px = n.get(km::ransac_threshold_px);
@@ -167,7 +176,8 @@ std::vector<config::Section> FeatureTrackerConfig::schema() {
           config::section("feature_tracker.tracker.klt", where, kk::window, kk::levels, kk::max_iterations,
                           kk::epsilon_px, kk::min_eigenvalue, kk::max_error),
           config::section("feature_tracker.matcher", where, km::orb_features, km::orb_levels, km::orb_scale,
-                          km::fast_threshold, km::ratio, km::mutual, km::ransac_threshold_px, km::ransac_iterations,
+                          km::fast_threshold, km::current_features, km::current_levels,
+                          km::current_fast_threshold, km::ratio, km::mutual, km::ransac_threshold_px, km::ransac_iterations,
                           km::seed, km::min_inliers, km::refine, km::refine_window, km::refine_max_shift_px, km::track,
                           km::track_corners, km::track_levels, km::track_min_fraction)};
 }

@@ -7,6 +7,7 @@
 
 #include "features/corners.hpp"
 #include "features/lucas_kanade.hpp"
+#include "features/matcher.hpp"
 #include "features/simd.hpp"
 #include "synthetic.hpp"
 
@@ -93,5 +94,29 @@ TEST(SimdKernels, WindowsAtTheLastValidPixelReadOnlyTheImage) {
       EXPECT_EQ(r[i].pt, pts[i]) << i;
       EXPECT_EQ(r[i].error, 0.f) << i;
     }
+  }
+}
+
+// Descriptor matching: the AVX-512 VPOPCNTDQ / AVX2 build against the
+// portable one, with near and exact duplicates (ties) among the descriptors.
+TEST(SimdKernels, HammingMatchingIsTheSameInEveryBuild) {
+  cv::RNG rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int nd = rng.uniform(1, 1200), nc = rng.uniform(1, 700);
+    cv::Mat1b d(nd, 32), c(nc, 32);
+    rng.fill(d, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(c, cv::RNG::UNIFORM, 0, 256);
+    for (int j = 0; j < nc; j += 3) {
+      d.row(rng.uniform(0, nd)).copyTo(c.row(j));
+      c(j, rng.uniform(0, 32)) ^= static_cast<uint8_t>(1 << rng.uniform(0, 8));
+    }
+    for (int j = 1; j < nc; j += 7) c.row(j - 1).copyTo(c.row(j));
+    f::detail::Nearest fast, portable;
+    f::detail::hamming_nearest(true, d.ptr<uint8_t>(), nd, c.ptr<uint8_t>(), nc, fast);
+    f::detail::hamming_nearest(false, d.ptr<uint8_t>(), nd, c.ptr<uint8_t>(), nc, portable);
+    EXPECT_EQ(fast.best, portable.best) << trial;
+    EXPECT_EQ(fast.best_dist, portable.best_dist) << trial;
+    EXPECT_EQ(fast.second_dist, portable.second_dist) << trial;
+    EXPECT_EQ(fast.back, portable.back) << trial;
   }
 }
