@@ -58,6 +58,41 @@ cv::Matx33d to_cv(const Eigen::Matrix3d& G) {
   return M;
 }
 
+// The selection every Hamming build shares: per desired row the best and second-best distance (ties keep the
+// lower index), per current row the best desired row. Plain inline code: it inlines into each build's loop.
+struct NearestSelection {
+  NearestSelection(int nd, int nc, Nearest& out) : out_(out), back_dist_(static_cast<std::size_t>(nc), 1 << 20) {
+    out.best.assign(static_cast<std::size_t>(nd), -1);
+    out.best_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
+    out.second_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
+    out.back.assign(static_cast<std::size_t>(nc), -1);
+  }
+  HARVEST_SIMD_INLINE void begin_row() { b1_ = b2_ = 1 << 20, bi_ = -1; }
+  HARVEST_SIMD_INLINE void take(int i, int j, int dist) {
+    if (dist < b1_) {
+      b2_ = b1_;
+      b1_ = dist;
+      bi_ = j;
+    } else if (dist < b2_) {
+      b2_ = dist;
+    }
+    if (dist < back_dist_[static_cast<std::size_t>(j)]) {
+      back_dist_[static_cast<std::size_t>(j)] = dist;
+      out_.back[static_cast<std::size_t>(j)] = i;
+    }
+  }
+  HARVEST_SIMD_INLINE void end_row(int i) {
+    out_.best[static_cast<std::size_t>(i)] = bi_;
+    out_.best_dist[static_cast<std::size_t>(i)] = b1_;
+    out_.second_dist[static_cast<std::size_t>(i)] = b2_;
+  }
+
+ private:
+  Nearest& out_;
+  std::vector<int> back_dist_;
+  int b1_ = 1 << 20, b2_ = 1 << 20, bi_ = -1;
+};
+
 // Brute-force Hamming matching of 32-byte descriptors (ORB) in one pass over
 // all pairs: for every desired descriptor the best and second-best current
 // one (ratio test), for every current descriptor the best desired one
@@ -65,35 +100,19 @@ cv::Matx33d to_cv(const Eigen::Matrix3d& G) {
 // the AVX2 build (the portable build counts bits in software); eight at a
 // time with AVX-512 VPOPCNTDQ (below).
 HARVEST_SIMD_INLINE void hamming_nearest_impl(const uint8_t* d, int nd, const uint8_t* c, int nc, Nearest& out) {
-  out.best.assign(static_cast<std::size_t>(nd), -1);
-  out.best_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
-  out.second_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
-  out.back.assign(static_cast<std::size_t>(nc), -1);
-  std::vector<int> back_dist(static_cast<std::size_t>(nc), 1 << 20);
+  NearestSelection sel(nd, nc, out);
   for (int i = 0; i < nd; ++i) {
     uint64_t a[4];
     std::memcpy(a, d + 32 * static_cast<std::size_t>(i), 32);
-    int b1 = 1 << 20, b2 = 1 << 20, bi = -1;
+    sel.begin_row();
     for (int j = 0; j < nc; ++j) {
       uint64_t b[4];
       std::memcpy(b, c + 32 * static_cast<std::size_t>(j), 32);
-      const int dist = __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-                       __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
-      if (dist < b1) {
-        b2 = b1;
-        b1 = dist;
-        bi = j;
-      } else if (dist < b2) {
-        b2 = dist;
-      }
-      if (dist < back_dist[static_cast<std::size_t>(j)]) {
-        back_dist[static_cast<std::size_t>(j)] = dist;
-        out.back[static_cast<std::size_t>(j)] = i;
-      }
+      sel.take(i, j,
+               __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
+                   __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]));
     }
-    out.best[static_cast<std::size_t>(i)] = bi;
-    out.best_dist[static_cast<std::size_t>(i)] = b1;
-    out.second_dist[static_cast<std::size_t>(i)] = b2;
+    sel.end_row(i);
   }
 }
 HARVEST_SIMD_DISPATCH(hamming_nearest_2, hamming_nearest_impl, void,
@@ -112,11 +131,7 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) void hamming_nearest_vpopcnt(
   std::vector<uint64_t> w(4 * n8, 0);
   for (std::size_t j = 0; j < static_cast<std::size_t>(nc); ++j)
     for (std::size_t k = 0; k < 4; ++k) std::memcpy(&w[k * n8 + j], c + 32 * j + 8 * k, 8);
-  out.best.assign(static_cast<std::size_t>(nd), -1);
-  out.best_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
-  out.second_dist.assign(static_cast<std::size_t>(nd), 1 << 20);
-  out.back.assign(static_cast<std::size_t>(nc), -1);
-  std::vector<int> back_dist(static_cast<std::size_t>(nc), 1 << 20);
+  NearestSelection sel(nd, nc, out);
   std::vector<int64_t> dist(n8);
   for (int i = 0; i < nd; ++i) {
     uint64_t a[4];
@@ -132,24 +147,9 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) void hamming_nearest_vpopcnt(
       s = _mm512_add_epi64(s, _mm512_popcnt_epi64(_mm512_xor_si512(a3, _mm512_loadu_si512(&w[3 * n8 + j]))));
       _mm512_storeu_si512(&dist[j], s);
     }
-    int b1 = 1 << 20, b2 = 1 << 20, bi = -1;
-    for (int j = 0; j < nc; ++j) {
-      const int dj = static_cast<int>(dist[static_cast<std::size_t>(j)]);
-      if (dj < b1) {
-        b2 = b1;
-        b1 = dj;
-        bi = j;
-      } else if (dj < b2) {
-        b2 = dj;
-      }
-      if (dj < back_dist[static_cast<std::size_t>(j)]) {
-        back_dist[static_cast<std::size_t>(j)] = dj;
-        out.back[static_cast<std::size_t>(j)] = i;
-      }
-    }
-    out.best[static_cast<std::size_t>(i)] = bi;
-    out.best_dist[static_cast<std::size_t>(i)] = b1;
-    out.second_dist[static_cast<std::size_t>(i)] = b2;
+    sel.begin_row();
+    for (int j = 0; j < nc; ++j) sel.take(i, j, static_cast<int>(dist[static_cast<std::size_t>(j)]));
+    sel.end_row(i);
   }
 }
 #endif
