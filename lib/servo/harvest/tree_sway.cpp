@@ -14,12 +14,18 @@ void TreeSwayGauge::add(const targets_t& fixed) {
     if (!(target.diameter_px > 0.0f) || !(target.diameter_m > 0.0) || !std::isfinite(target.u_px) ||
         !std::isfinite(target.v_px))
       continue;
-    views_[target.fruit_id].push_back({t, target.u_px, target.v_px, target.diameter_m / target.diameter_px});
+    auto it = views_.find(target.fruit_id);
+    if (it == views_.end()) {
+      if (static_cast<int>(views_.size()) >= kMaxFruit) continue;
+      it = views_.emplace(target.fruit_id, std::deque<View>{}).first;
+    }
+    it->second.push_back({t, target.u_px, target.v_px, target.diameter_m / target.diameter_px});
   }
-  update(t);
+  if (t >= updated_ + kEvery_s || t < updated_) update(t);
 }
 
 void TreeSwayGauge::update(double now) {
+  updated_ = now;
   std::vector<double> spreads;
   for (auto it = views_.begin(); it != views_.end();) {
     auto& v = it->second;

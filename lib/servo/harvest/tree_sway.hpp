@@ -32,6 +32,14 @@ class TreeSwayGauge {
   const Reading& reading() const { return reading_; }
   // tree_window 0: never a verdict.
   bool enabled() const { return p_.tree_window > 0.0; }
+  // Fruit ids with views kept (at most kMaxFruit).
+  int tracked() const { return static_cast<int>(views_.size()); }
+
+  // Bounds on the work a flood of TARGETS can cause (a tree has tens of fruit in view; the reading changes
+  // slowly): new ids beyond kMaxFruit are not watched, and the reading is recomputed at most every kEvery_s of
+  // image time.
+  static constexpr int kMaxFruit = 256;
+  static constexpr double kEvery_s = 0.1;
 
  private:
   struct View {
@@ -44,6 +52,7 @@ class TreeSwayGauge {
   ServoConfig::Sway p_;
   std::map<int32_t, std::deque<View>> views_;  // by fixed-camera fruit id
   Reading reading_;
+  double updated_ = -1e300;  // [s] image time of the last recomputation
 };
 
 const char* to_string(TreeSwayGauge::Verdict v);

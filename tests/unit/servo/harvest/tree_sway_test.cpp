@@ -117,5 +117,18 @@ TEST(TreeSwayGauge, TheFruitAtTheQuantileStandsForTheTree) {
   }
 }
 
+// A flood of ids is not watched without bound: at most kMaxFruit ids are kept; old ones age out within a window.
+TEST(TreeSwayGauge, AFloodOfIdsIsBounded) {
+  TreeSwayGauge g{ServoConfig::Sway{}};
+  for (int i = 0; i < 40; ++i) {
+    std::vector<target_t> many;
+    for (int f = 0; f < 100; ++f) many.push_back(fruit(i * 100 + f, f, 10));
+    g.add(frame(i / 30.0, many));
+  }
+  EXPECT_EQ(g.tracked(), TreeSwayGauge::kMaxFruit);
+  g.add(frame(10.0, {fruit(1, 10, 10)}));  // 8 s later: the flood has aged out
+  EXPECT_EQ(g.tracked(), 1);
+}
+
 }  // namespace
 }  // namespace harvest::servo
