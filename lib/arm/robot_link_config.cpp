@@ -3,7 +3,6 @@
 #include <string>
 
 #include "geometry/envelope.hpp"
-#include "geometry/transform_file.hpp"
 
 namespace harvest::arm {
 
@@ -14,14 +13,8 @@ RobotLinkConfig RobotLinkConfig::from_config(const config::Node& root) {
   c.model = kinematics::ArmModel::load(root.get(k::arm_model).string());
   // The model is the arm's type, shared by every robot of it; where this robot's camera-in-hand sits is its own
   // calibration (docs/calibration.md), kept beside the robot's other site files.
-  if (root.has(k::hand_eye.name) && !root.get<std::string>(k::hand_eye.name, "").empty()) {
-    const auto file = root.get(k::hand_eye);
-    try {
-      c.model.camera = c.model.tool * geometry::load_transform_file(file, geometry::Handedness::kProper);
-    } catch (const std::exception& e) {
-      root.fail("hand_eye", std::string("a readable hand-eye calibration (") + e.what() + ")");
-    }
-  }
+  if (!root.get<std::string>(k::hand_eye.name, "").empty())
+    c.model.place_camera(root, k::hand_eye.name, root.get(k::hand_eye));
   c.can = canopen::MasterConfig::from_config(root.child("can"));
   if (static_cast<int>(c.can.drives.size()) != c.model.dof())
     root.child("can").fail("drives", "one drive per joint of the arm model (" + std::to_string(c.model.dof()) + ")");

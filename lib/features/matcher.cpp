@@ -419,26 +419,25 @@ MatchResult DesiredImageMatcher::detect(const cv::Mat1b& current, const cv::Rect
     // The current image warped into the desired one, only around the
     // inliers (tiles); what remains there is a small residual
     // displacement that Lucas-Kanade measures to sub-pixel.
-    const std::vector<cv::Point2f>& pd = in_d;
     // A tile holds the window, moved by up to refine_max_shift_px, and
     // the bilinear interpolation's next pixel.
     const int half = params_.refine_lk.window / 2 + static_cast<int>(std::ceil(params_.refine_max_shift_px)) + 1;
     std::vector<cv::Point> origin, tile;
-    const cv::Mat1b tiles = warp_tiles(current, G, pd, half, origin, tile);
+    const cv::Mat1b tiles = warp_tiles(current, G, in_d, half, origin, tile);
     const Pyramid wp(tiles, 1);
     LkParams lp = params_.refine_lk;
     lp.levels = 1;  // a tile holds the neighbourhood of one level
-    std::vector<cv::Point2f> guesses(pd.size());
-    for (std::size_t i = 0; i < pd.size(); ++i) guesses[i] = pd[i] - cv::Point2f(origin[i] - tile[i]);
-    const auto res = track_lk(desired_pyr_, wp, pd, lp, guesses);
+    std::vector<cv::Point2f> guesses(in_d.size());
+    for (std::size_t i = 0; i < in_d.size(); ++i) guesses[i] = in_d[i] - cv::Point2f(origin[i] - tile[i]);
+    const auto res = track_lk(desired_pyr_, wp, in_d, lp, guesses);
     std::vector<cv::Point2f> rd, rc;
-    for (std::size_t i = 0; i < pd.size(); ++i) {
+    for (std::size_t i = 0; i < in_d.size(); ++i) {
       const auto& t = res[i];
       if (!t.found) continue;
       const cv::Point2f q = t.pt + cv::Point2f(origin[i] - tile[i]);  // desired px
-      const float sx = q.x - pd[i].x, sy = q.y - pd[i].y;
+      const float sx = q.x - in_d[i].x, sy = q.y - in_d[i].y;
       if (sx * sx + sy * sy > params_.refine_max_shift_px * params_.refine_max_shift_px) continue;
-      rd.push_back(pd[i]);
+      rd.push_back(in_d[i]);
       rc.push_back(apply(G, q));
     }
     if (static_cast<int>(rd.size()) >= params_.min_inliers) {

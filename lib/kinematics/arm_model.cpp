@@ -16,9 +16,10 @@ namespace k {
 using config::Key;
 using config::Numbers;
 constexpr Key<std::string> name{"name", "arm", {}, "", "the arm's name"};
-constexpr Numbers home_deg{.name = "home_deg", .unit = "deg", .doc = "home posture, one per joint, inside the limits",
-                           .required = true};
-constexpr Numbers rest_deg{.name = "rest_deg", .unit = "deg",
+constexpr Numbers home_deg{
+    .name = "home_deg", .unit = "deg", .doc = "home posture, one per joint, inside the limits", .required = true};
+constexpr Numbers rest_deg{.name = "rest_deg",
+                           .unit = "deg",
                            .doc = "posture the IK's null-space motion pulls toward, one per joint",
                            .derived = "home_deg"};
 namespace joint {
@@ -27,30 +28,38 @@ constexpr Key<double> a{"a", 0.0, {}, "m", "DH link length"};
 constexpr Key<double> alpha_deg{"alpha_deg", 0.0, {-360.0, 360.0}, "deg", "DH link twist"};
 constexpr Key<double> d{"d", 0.0, {}, "m", "DH link offset"};
 constexpr Key<double> theta_offset_deg{"theta_offset_deg", 0.0, {-360.0, 360.0}, "deg", "DH joint angle offset"};
-constexpr Key<double> min_deg{.name = "min_deg", .range = {-360.0, 360.0}, .unit = "deg",
-                              .doc = "lower position limit", .required = true};
-constexpr Key<double> max_deg{.name = "max_deg", .range = {-360.0, 360.0}, .unit = "deg",
-                              .doc = "upper position limit, above min_deg", .required = true};
-constexpr Key<double> max_velocity_deg_s{.name = "max_velocity_deg_s", .range = {0.1, 1000.0}, .unit = "deg/s",
-                                         .doc = "velocity limit", .required = true};
-constexpr Key<double> max_acceleration_deg_s2{.name = "max_acceleration_deg_s2", .range = {0.1, 10000.0},
-                                              .unit = "deg/s^2", .doc = "acceleration limit", .required = true};
+constexpr Key<double> min_deg{
+    .name = "min_deg", .range = {-360.0, 360.0}, .unit = "deg", .doc = "lower position limit", .required = true};
+constexpr Key<double> max_deg{.name = "max_deg",
+                              .range = {-360.0, 360.0},
+                              .unit = "deg",
+                              .doc = "upper position limit, above min_deg",
+                              .required = true};
+constexpr Key<double> max_velocity_deg_s{
+    .name = "max_velocity_deg_s", .range = {0.1, 1000.0}, .unit = "deg/s", .doc = "velocity limit", .required = true};
+constexpr Key<double> max_acceleration_deg_s2{.name = "max_acceleration_deg_s2",
+                                              .range = {0.1, 10000.0},
+                                              .unit = "deg/s^2",
+                                              .doc = "acceleration limit",
+                                              .required = true};
 }  // namespace joint
 constexpr Numbers base_position{"position", 3, {0.0, 0.0, 0.0}, "m", "DH frame 0 in the robot base frame"};
-constexpr Numbers base_rotation{"rotation", 9, {1, 0, 0, 0, 1, 0, 0, 0, 1}, "",
-                                "its rotation, row-major, a proper rotation matrix"};
+constexpr Numbers base_rotation{
+    "rotation", 9, {1, 0, 0, 0, 1, 0, 0, 0, 1}, "", "its rotation, row-major, a proper rotation matrix"};
 constexpr Numbers tool_position{"position", 3, {0.0, 0.0, 0.1905}, "m", "tool centre point in the flange frame"};
 constexpr Numbers tool_rpy{"rpy_deg", 3, {0.0, 0.0, 0.0}, "deg", "its roll, pitch, yaw"};
-constexpr Numbers camera_position{"position", 3, {0.0, 0.0, 0.1905}, "m",
-                                  "hand camera optical frame in the flange frame (without calibration)"};
+constexpr Numbers camera_position{
+    "position", 3, {0.0, 0.0, 0.1905}, "m", "hand camera optical frame in the flange frame (without calibration)"};
 constexpr Numbers camera_rpy{"rpy_deg", 3, {0.0, 0.0, 0.0}, "deg", "its roll, pitch, yaw"};
 constexpr Key<config::Path> camera_calibration{
-    .name = "calibration", .doc = "instead: the camera in the tool frame as harvest-calibrate hand-eye writes it",
+    .name = "calibration",
+    .doc = "instead: the camera in the tool frame as harvest-calibrate hand-eye writes it",
     .derived = "none"};
 }  // namespace k
 
 // A frame offset given as position [m] and roll-pitch-yaw [deg].
-Eigen::Isometry3d read_offset(const config::Node& node, const config::Numbers& position, const config::Numbers& rpy_key) {
+Eigen::Isometry3d read_offset(const config::Node& node, const config::Numbers& position,
+                              const config::Numbers& rpy_key) {
   const auto p = node.get(position);
   const auto rpy = node.get(rpy_key);
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
@@ -101,6 +110,14 @@ Eigen::VectorXd ArmModel::max_acceleration() const {
   return v;
 }
 
+void ArmModel::place_camera(const config::Node& node, const std::string& key, const std::filesystem::path& file) {
+  try {
+    camera = tool * geometry::load_transform_file(file, geometry::Handedness::kProper);
+  } catch (const std::exception& e) {
+    node.fail(key, std::string("a readable hand-eye calibration (") + e.what() + ")");
+  }
+}
+
 bool ArmModel::within_limits(const Eigen::VectorXd& q, double margin) const {
   if (q.size() != dof()) return false;
   for (int i = 0; i < dof(); ++i)
@@ -136,12 +153,7 @@ ArmModel ArmModel::from_config(const config::Node& node) {
     // camera in the tool frame: flange <- tool <- camera.
     if (camera.has("position") || camera.has("rpy_deg"))
       camera.fail("calibration", "either a calibration file or position/rpy_deg, not both");
-    const auto file = camera.get(k::camera_calibration);
-    try {
-      m.camera = m.tool * geometry::load_transform_file(file, geometry::Handedness::kProper);
-    } catch (const std::exception& e) {
-      camera.fail("calibration", std::string("a readable hand-eye calibration (") + e.what() + ")");
-    }
+    m.place_camera(camera, "calibration", camera.get(k::camera_calibration));
   } else {
     m.camera = read_offset(camera, k::camera_position, k::camera_rpy);
   }
@@ -159,8 +171,9 @@ ArmModel ArmModel::from_config(const config::Node& node) {
 
 std::vector<config::Section> ArmModel::schema() {
   namespace kj = k::joint;
-  const std::string where = "An arm model file (config/arm/k1207i.yaml, six_axis.yaml), named by arm_model in the "
-                            "robot link's, the simulated drives' and the simulator's files.";
+  const std::string where =
+      "An arm model file (config/arm/k1207i.yaml, six_axis.yaml), named by arm_model in the "
+      "robot link's, the simulated drives' and the simulator's files.";
   return {config::section("arm_model", where, k::name, k::home_deg, k::rest_deg),
           config::section("arm_model.joints[]", "One per joint, base to flange (Denavit-Hartenberg, standard).",
                           kj::name, kj::a, kj::alpha_deg, kj::d, kj::theta_offset_deg, kj::min_deg, kj::max_deg,

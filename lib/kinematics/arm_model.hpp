@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -29,13 +30,13 @@ struct Joint {
 struct ArmModel {
   std::string name;
   std::vector<Joint> joints;
-  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();    // DH frame 0 in the robot base frame
-  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // tool centre point in the flange frame
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();  // DH frame 0 in the robot base frame
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();  // tool centre point in the flange frame
   // Hand camera optical frame in the flange frame: `camera: {position, rpy_deg}`
   // in the flange frame, or `camera: {calibration: FILE}`, the camera in the
   // tool frame as harvest-calibrate writes it (then camera = tool * file).
   Eigen::Isometry3d camera = Eigen::Isometry3d::Identity();
-  Eigen::VectorXd home;                                      // [rad]
+  Eigen::VectorXd home;  // [rad]
   // Posture the IK's null-space motion pulls toward (rest_deg, default home_deg).
   Eigen::VectorXd rest;  // [rad]
 
@@ -45,6 +46,9 @@ struct ArmModel {
   Eigen::VectorXd max_velocity() const;
   Eigen::VectorXd max_acceleration() const;
   bool within_limits(const Eigen::VectorXd& q, double margin = 0.0) const;
+  // Places the camera from a hand-eye calibration file (the camera in the tool frame, as harvest-calibrate
+  // hand-eye writes it): camera = tool * file. An unreadable file fails `key` of `node`.
+  void place_camera(const config::Node& node, const std::string& key, const std::filesystem::path& file);
 
   // Reads the `arm` mapping (see config/arm/k1207i.yaml). Throws config::Error.
   static ArmModel from_config(const config::Node& node);

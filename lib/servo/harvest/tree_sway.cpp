@@ -63,16 +63,4 @@ void TreeSwayGauge::update(double now) {
   reading_.verdict = reading_.rms < p_.tree_still_rms ? Verdict::kStill : Verdict::kSwaying;
 }
 
-const char* to_string(TreeSwayGauge::Verdict v) {
-  switch (v) {
-    case TreeSwayGauge::Verdict::kStill:
-      return "still";
-    case TreeSwayGauge::Verdict::kSwaying:
-      return "swaying";
-    case TreeSwayGauge::Verdict::kUnknown:
-      break;
-  }
-  return "unknown";
-}
-
 }  // namespace harvest::servo

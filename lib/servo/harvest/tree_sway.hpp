@@ -55,6 +55,4 @@ class TreeSwayGauge {
   double updated_ = -1e300;  // [s] image time of the last recomputation
 };
 
-const char* to_string(TreeSwayGauge::Verdict v);
-
 }  // namespace harvest::servo
