@@ -82,15 +82,24 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
-    start_goal(retreat_goal(), State::kRetreat, now, out);
     // Out of the canopy the next fruit can be turned to straight from there (its aim from home); after a joint met
     // its limit going in, home first: the robot link's way home resets the arm's posture.
     next_after_retreat_ = straight() && !(cfg_.home_after_joint_limit && joint_limit_met_);
     if (straight() && !next_after_retreat_) note_ = "a joint met its limit going in: home first";
+    start_goal(next_after_retreat_ ? clear_retreat_goal() : retreat_goal(), State::kRetreat, now, out);
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
   approach_from_.reset();
+}
+
+Eigen::Isometry3d HarvestMachine::clear_retreat_goal() const {
+  if (cfg_.retreat_clearance <= 0.0 || !fixed_) return retreat_goal();
+  // Every fruit the fixed camera sees now (the one just picked is in the gripper or falling where the pull ended).
+  std::vector<Eigen::Vector3d> fruit;
+  for (const auto& t : fixed_->targets) fruit.emplace_back(t.position_base[0], t.position_base[1], t.position_base[2]);
+  return clear_retreat(tool(), approach_from_, cfg_.retreat_distance, cfg_.home_pose, fruit, cfg_.retreat_clearance,
+                       cfg_.palm_offset);
 }
 
 void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOutput& out) {
@@ -548,6 +557,7 @@ void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
   note_ = arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
           (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
            : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
+           : current_->depth == Fruit::Depth::kFixed    ? " (the fixed camera's depth along the hand's ray: its size put it outside)"
                                                         : " (depth from size)");
   enter(State::kIrApproach, now, out);
   ir_step(now, out);  // the first IR-guided command at once
@@ -615,10 +625,12 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
   const ServoConfig::Sway& p = cfg_.sway;
   if (held_ || p.hold_standoff <= 0.0 || p.hold_time <= 0.0) return std::nullopt;
   if (!hold_since_) {
-    // Not a fruit cut by a leaf (its depth from the rays' crossing, the size disagreed): the standoff would be
-    // measured from a doubtful depth, and the hand camera's views of it are pieces.
+    // Not a fruit cut by a leaf (its depth from the rays' crossing or the fixed camera, the hand's size
+    // disagreed): the standoff would be measured from a doubtful depth, and the hand camera's views of it are pieces.
     const double spread = sway_.spread();
-    if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing) return std::nullopt;
+    if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing ||
+        current_->depth == Fruit::Depth::kFixed)
+      return std::nullopt;
     const double ahead = ahead_along_axis(tool, current_->estimate);
     if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
     if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on

@@ -179,6 +179,8 @@ class HarvestMachine {
   // of where the approach began, whichever is farther.
   Eigen::Vector3d home_x() const { return cfg_.home_pose.rotation().col(0); }  // the roll ORIENT_PD holds
   Eigen::Isometry3d retreat_goal() const { return back_along_axis(tool(), approach_from_, cfg_.retreat_distance); }
+  // ... or, the straight way to the next aim following it, only as far as that way needs to clear the fruit.
+  Eigen::Isometry3d clear_retreat_goal() const;
 
   // Ends the current fruit with an outcome; `retreat` pulls back along the
   // tool axis before returning home.

@@ -68,6 +68,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.orient_tolerance = n.get(k::orient_tolerance);
   c.position_tolerance = n.get(k::position_tolerance);
   c.retreat_distance = n.get(k::retreat_distance);
+  c.retreat_clearance = n.get(k::retreat_clearance);
+  c.palm_offset = n.get(k::palm_offset);
   c.pull_distance = n.get(k::pull_distance);
   c.twist_angle = n.get(k::twist_angle);
   c.release_at_detach = n.get(k::release_at_detach);
@@ -90,6 +92,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.reused_id_distance = n.get(k::reused_id_distance);
   c.size_agreement = n.get(k::size_agreement);
   c.size_agreement_min = n.get(k::size_agreement_min);
+  c.fixed_depth_gap = n.get(k::fixed_depth_gap);
   c.fills_view = n.get(k::fills_view);
   c.front_fruit_size_ratio = n.get(k::front_fruit_size_ratio);
   c.whole_fruit_border_px = n.get(k::whole_fruit_border_px);
@@ -212,12 +215,12 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance,
                       k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near,
                       k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance, k::position_tolerance,
-                      k::retreat_distance, k::pull_distance, k::twist_angle, k::release_at_detach, k::straight_to_next,
+                      k::retreat_distance, k::retreat_clearance, k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::straight_to_next,
                       k::home_after_joint_limit, k::release_opening, k::fruit_order, k::max_attempts_per_fruit,
                       k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle,
                       k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
                       k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
-                      k::size_agreement, k::size_agreement_min, k::fills_view, k::front_fruit_size_ratio,
+                      k::size_agreement, k::size_agreement_min, k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio,
                       k::whole_fruit_border_px, k::goal_progress_step, k::goal_progress_angle, k::in_view_margin,
                       k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),

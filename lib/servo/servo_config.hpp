@@ -46,6 +46,8 @@ inline constexpr Key<int> ir_attempts{"ir_attempts", 2, {1, 10}, "", "IR approac
 inline constexpr Key<double> orient_tolerance{"orient_tolerance", 0.02, {1e-6, 1e6}, "rad", "orientation reached"};
 inline constexpr Key<double> position_tolerance{"position_tolerance", 0.005, {1e-6, 1e6}, "m", "pose goal reached"};
 inline constexpr Key<double> retreat_distance{"retreat_distance", 0.15, {0.0, 1e6}, "m", "pull back along the tool axis after a failure"};
+inline constexpr Key<double> retreat_clearance{"retreat_clearance", 0.0, {0.0, 1.0}, "m", "> 0 (e.g. 0.12): a retreat followed by the straight way to the next aim ends where that way passes this far from every fruit the fixed camera sees (0: always abreast of where the approach began; 0.12 picked fewer on four tree seeds, docs/demo.md)"};
+inline constexpr Key<double> palm_offset{"palm_offset", 0.05, {0.0, 0.5}, "m", "the palm (IR sensor) this far behind the tool point along its axis: the gripper's body that retreat_clearance keeps clear too"};
 inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
 inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
@@ -67,6 +69,7 @@ inline constexpr Key<double> same_sight_angle{"same_sight_angle", 0.02, {0.0, 0.
 inline constexpr Key<double> reused_id_distance{"reused_id_distance", 0.15, {0.0, 1e6}, "m", "a finished id seen this far from where it finished is another fruit"};
 inline constexpr Key<double> size_agreement{"size_agreement", 0.3, {0.0, 10.0}, "", "a size-based hand estimate agrees with the rays' crossing within this share of the range ..."};
 inline constexpr Key<double> size_agreement_min{"size_agreement_min", 0.1, {0.0, 10.0}, "m", "... or at least this"};
+inline constexpr Key<double> fixed_depth_gap{"fixed_depth_gap", 0.06, {0.0, 0.5}, "m", "a size-based hand estimate outside the workspace: the point of the hand's ray nearest the fixed camera's estimate instead, if the ray passes this near it and the point is inside (0: off, the attempt is given up)"};
 inline constexpr Key<double> fills_view{"fills_view", 0.8, {0.1, 1.0}, "", "a hand detection this share of the image height fills the view: no depth from its size"};
 inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
 inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};
@@ -241,6 +244,13 @@ struct ServoConfig {
   double orient_tolerance = servo_keys::orient_tolerance.fallback;     // [rad] orientation reached
   double position_tolerance = servo_keys::position_tolerance.fallback;  // [m] pose goal reached
   double retreat_distance = servo_keys::retreat_distance.fallback;     // [m] pull back along the tool axis after a failure
+  // A retreat followed by the straight way to the next fruit's aim (turning
+  // on the way) ends, short of abreast of where the approach began, at the
+  // first place from where that way passes retreat_clearance from every fruit
+  // the fixed camera sees, for the tool point and the palm palm_offset behind
+  // it (0: always abreast).
+  double retreat_clearance = servo_keys::retreat_clearance.fallback;  // [m]
+  double palm_offset = servo_keys::palm_offset.fallback;              // [m]
   double pull_distance = servo_keys::pull_distance.fallback;        // [m] detach: pull back along the tool axis ...
   double twist_angle = servo_keys::twist_angle.fallback;        // [rad] ... while twisting about it
   bool release_at_detach = servo_keys::release_at_detach.fallback;      // open the gripper where the pull ended (false: carry it to drop_pose first)
@@ -295,6 +305,12 @@ struct ServoConfig {
   // depth's own error is about 10 % rms, a leaf-cut fruit's a factor of 1.5.
   double size_agreement = servo_keys::size_agreement.fallback;
   double size_agreement_min = servo_keys::size_agreement_min.fallback;  // [m]
+  // A size-based hand estimate outside the workspace (a leaf cut the fruit:
+  // it looks small and far, 10-15 cm beyond the truth on the tree) whose ray
+  // passes within fixed_depth_gap of the fixed camera's estimate is that
+  // fruit at the fixed camera's depth: the point of the ray nearest it, if
+  // inside (the IR finds the surface; 0: off, the attempt is given up).
+  double fixed_depth_gap = servo_keys::fixed_depth_gap.fallback;  // [m]
   // A hand detection at least fills_view of the image height fills the view:
   // no depth from its size; and, front_fruit_size_ratio times the size the
   // current fruit should have and covering the image centre, it is a nearer

@@ -113,6 +113,38 @@ Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::opti
   return g;
 }
 
+namespace {
+double segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double s = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + s * ab - p).norm();
+}
+}  // namespace
+
+Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
+                                double at_least, const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
+                                double clearance, double palm, double step) {
+  const Eigen::Isometry3d farthest = back_along_axis(tool, abreast_of, at_least);
+  const Eigen::Vector3d axis = tool.rotation().col(2);
+  const double back_max = (tool.translation() - farthest.translation()).dot(axis);
+  const Eigen::Vector3d to_palm = to.translation() - palm * to.rotation().col(2);
+  for (double back = at_least; back < back_max; back += std::max(step, 1e-3)) {
+    const Eigen::Vector3d from = tool.translation() - back * axis;
+    const Eigen::Vector3d from_palm = from - palm * axis;
+    const bool clear = std::all_of(fruit.begin(), fruit.end(), [&](const Eigen::Vector3d& f) {
+      return segment_distance(from, to.translation(), f) >= clearance &&
+             segment_distance(from_palm, to_palm, f) >= clearance;
+    });
+    if (clear) {
+      Eigen::Isometry3d g = tool;
+      g.translation() = from;
+      return g;
+    }
+  }
+  return farthest;
+}
+
 Eigen::Isometry3d detach_goal(const Eigen::Isometry3d& tool, double pull, double twist) {
   Eigen::Isometry3d g = back_along_axis(tool, std::nullopt, pull);
   g.linear() = g.linear() * Eigen::AngleAxisd(twist, Eigen::Vector3d::UnitZ()).toRotationMatrix();

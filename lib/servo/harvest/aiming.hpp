@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <optional>
+#include <vector>
 
 #include "harvest/targets_t.hpp"
 #include "servo/harvest/fruit.hpp"
@@ -53,6 +54,17 @@ std::optional<Eigen::Isometry3d> aim_from_viewpoint(const ServoConfig& cfg, cons
 // to an earlier point cuts sideways through neighbouring fruit.
 Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
                                   double at_least);
+
+// RETREAT's end when the way on is a straight line to `to` (the next aim
+// from home, turning on the way): back along the tool axis by `at_least`,
+// then further in `step`s up to abreast of `abreast_of` (back_along_axis's
+// goal), the first place from where that line, for the tool point and for
+// the point `palm` behind it on the axis, passes at least `clearance` from
+// every fruit in `fruit`. A fruit beside the way keeps the retreat going
+// to abreast: the gripper leaves the canopy the way it came in.
+Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
+                                double at_least, const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
+                                double clearance, double palm, double step = 0.02);
 
 // DETACH: the tool pulled `pull` back along its axis while turned `twist` about it.
 Eigen::Isometry3d detach_goal(const Eigen::Isometry3d& tool, double pull, double twist);

@@ -32,9 +32,11 @@ struct Fruit {
   bool from_viewpoint = false;  // ORIENT goes to the viewpoint (the turn at home is too wide or was blocked)
   double diameter = 0.07;       // [m] the diameter the fixed camera assumed (the statistical size)
   // Where the estimate's depth comes from: the apparent size alone, the
-  // size confirmed by where the two cameras' rays cross, or that crossing
-  // (the size disagreed with it: a leaf cutting the fruit).
-  enum class Depth { kSize, kConfirmed, kCrossing } depth = Depth::kSize;
+  // size confirmed by where the two cameras' rays cross, that crossing
+  // (the size disagreed with it: a leaf cutting the fruit), or the fixed
+  // camera's estimate along the hand's ray (the hand's size put it outside
+  // the workspace, the rays too parallel to cross).
+  enum class Depth { kSize, kConfirmed, kCrossing, kFixed } depth = Depth::kSize;
 };
 
 }  // namespace harvest::servo

@@ -135,17 +135,39 @@ void HandTracker::on_hand_targets(const targets_t& msg, Fruit& fruit, const Eige
           (sized - *pixel_crossing_).norm() <= std::max(cfg_.size_agreement_min, cfg_.size_agreement * range);
       fruit.estimate = agrees ? sized : *pixel_crossing_;
       fruit.depth = agrees ? Fruit::Depth::kConfirmed : Fruit::Depth::kCrossing;
+    } else if (!cfg_.workspace.contains(sized)) {
+      // No crossing (the rays too parallel) and a size putting it where no fruit can be picked: a leaf-cut fruit
+      // looks small and far. Its ray still knows the direction; the fixed camera's estimate gives the depth.
+      if (const auto along = along_ray(*pixel_, fruit.selected_from, camera)) {
+        fruit.estimate = *along;
+        fruit.depth = Fruit::Depth::kFixed;
+      }
     }
     break;
   }
+}
+
+std::optional<Eigen::Vector3d> HandTracker::along_ray(const PixelMeasurement& pixel, const Eigen::Vector3d& fixed,
+                                                      const Eigen::Isometry3d& cam) const {
+  if (cfg_.fixed_depth_gap <= 0.0) return std::nullopt;
+  const Eigen::Vector3d ray = ray_through(pixel, cam);
+  const double s = (fixed - cam.translation()).dot(ray);
+  if (s <= 0.0) return std::nullopt;
+  const Eigen::Vector3d point = cam.translation() + s * ray;
+  if ((point - fixed).norm() > cfg_.fixed_depth_gap || !cfg_.workspace.contains(point)) return std::nullopt;
+  return point;
+}
+
+Eigen::Vector3d HandTracker::ray_through(const PixelMeasurement& pixel, const Eigen::Isometry3d& cam) const {
+  const Eigen::Vector2d xy = undistort_pixel(cfg_.hand_camera, pixel.u, pixel.v);
+  return cam.rotation() * Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
 }
 
 std::optional<Eigen::Vector3d> HandTracker::cross(const PixelMeasurement& pixel, const Fruit& fruit,
                                                   const Eigen::Isometry3d& cam) const {
   if (cfg_.triangulation_gap <= 0.0 || !fruit.sight) return std::nullopt;
   // `cam` is where the camera took the image (HarvestMachine::image_camera).
-  const Eigen::Vector2d xy = undistort_pixel(cfg_.hand_camera, pixel.u, pixel.v);
-  const Eigen::Vector3d ray = cam.rotation() * Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  const Eigen::Vector3d ray = ray_through(pixel, cam);
   const SightLine& l = *fruit.sight;
   const auto c = cross_rays(cam.translation(), ray, l.origin, l.direction);
   if (!c || c->gap > cfg_.triangulation_gap || c->angle < cfg_.min_triangulation_angle) return std::nullopt;

@@ -57,6 +57,14 @@ class HandTracker {
   std::optional<Eigen::Vector3d> cross(const PixelMeasurement& pixel, const Fruit& fruit,
                                        const Eigen::Isometry3d& camera) const;
 
+  // The point of the camera-in-hand's ray through `pixel` nearest the fixed
+  // camera's estimate `fixed`, if the ray passes within fixed_depth_gap of it
+  // and the point lies in the workspace.
+  std::optional<Eigen::Vector3d> along_ray(const PixelMeasurement& pixel, const Eigen::Vector3d& fixed,
+                                           const Eigen::Isometry3d& camera) const;
+  // The unit ray (base frame) through an undistorted pixel of the camera at `camera`.
+  Eigen::Vector3d ray_through(const PixelMeasurement& pixel, const Eigen::Isometry3d& camera) const;
+
   ServoConfig cfg_;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;

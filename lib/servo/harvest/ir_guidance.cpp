@@ -116,7 +116,8 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   const double along = tool.translation().dot(tool.rotation().col(2));
   if (leaf_at_ && along >= *leaf_at_) leaf_at_.reset();
   const bool in_front = !leaf_at_ && fruit_in_front.has_value();
-  const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && fruit.depth != Fruit::Depth::kSize &&
+  const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && 
+                    (fruit.depth == Fruit::Depth::kConfirmed || fruit.depth == Fruit::Depth::kCrossing) &&
                     ahead > cfg_.ir_vision_agreement && !in_front;
   if (leaf) {  // the leaf, not the fruit
     if (!leaf_at_) {

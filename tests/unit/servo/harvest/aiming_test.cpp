@@ -137,6 +137,35 @@ TEST(Aiming, BackAlongTheAxisToAbreastOfAPointOrAtLeastSoFar) {
   EXPECT_NEAR(back_along_axis(tool, std::nullopt, 0.15).translation().x(), 0.0, 1e-12);
 }
 
+// The tool at (0, 0, 1) looking along +z, the approach begun at the origin,
+// the way on to (0.5, 0, 0). Hand-worked: from (0, 0, z0) that way passes
+// |0.25 - 0.3 z0| / sqrt(0.25 + z0^2) from a fruit at (0.2, 0, 0.5): 0.114 m
+// from z0 0.55, 0.125 m from 0.53, the first of the 2 cm steps (back 0.15,
+// 0.17, ...) clear by 0.12 m. No fruit: back 0.15 only; a fruit beside the
+// last stretch of every way: abreast. The palm: a fruit 7.6 mm from the way
+// of a palm 0.3 m behind (0.16 m from the tool point's) holds it back too.
+TEST(Aiming, ARetreatEndsWhereTheWayOnClearsTheFruit) {
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  tool.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  Eigen::Isometry3d to = Eigen::Isometry3d::Identity();
+  to.translation() = Eigen::Vector3d(0.5, 0.0, 0.0);
+  const Eigen::Vector3d start = Eigen::Vector3d::Zero();
+  const auto z = [&](const std::vector<Eigen::Vector3d>& fruit, double palm) {
+    const Eigen::Isometry3d g = clear_retreat(tool, start, 0.15, to, fruit, 0.12, palm);
+    EXPECT_NEAR(g.translation().head<2>().norm(), 0.0, 1e-12);  // straight back along the axis
+    EXPECT_TRUE(g.rotation().isApprox(tool.rotation()));
+    return g.translation().z();
+  };
+  EXPECT_NEAR(z({}, 0.0), 0.85, 1e-9);
+  EXPECT_NEAR(z({{0.2, 0.0, 0.5}}, 0.0), 0.53, 1e-9);
+  EXPECT_NEAR(z({{0.45, 0.0, 0.02}}, 0.0), 0.0, 1e-9);
+  EXPECT_NEAR(z({{0.05, 0.0, 0.45}}, 0.0), 0.85, 1e-9);
+  EXPECT_LT(z({{0.05, 0.0, 0.45}}, 0.3), 0.85 - 0.01);
+  // Never beyond abreast of the start, however far the clearance would need.
+  EXPECT_NEAR(clear_retreat(tool, Eigen::Vector3d(0.0, 0.0, 0.9), 0.15, to, {{0.2, 0.0, 0.5}}, 0.12, 0.0).translation().z(),
+              0.85, 1e-9);
+}
+
 TEST(Aiming, DetachPullsBackAlongTheAxisWhileTwistingAboutIt) {
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
   tool.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);

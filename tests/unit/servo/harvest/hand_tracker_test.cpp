@@ -175,6 +175,44 @@ TEST(HandTracker, WithoutACrossingTheSizeDepthIsTakenAsInTheThesis) {
   EXPECT_FALSE(f.depth_doubtful);
 }
 
+// No crossing (no line of sight here) and a size that puts the fruit beyond
+// the workspace (z <= 0.8 m here): a leaf-cut fruit looks small and far. The
+// hand's ray (the optical axis) passing 2 cm from the fixed camera's estimate
+// at z 0.55 gives the depth: (0, 0, 0.55). Not when the ray passes 10 cm off
+// it (another fruit), when that point is outside too, when the size was
+// inside, or with fixed_depth_gap 0.
+TEST(HandTracker, ASizeOutsideTheWorkspaceTakesTheFixedCamerasDepthAlongTheRay) {
+  struct Case {
+    Eigen::Vector3d fixed, sized;
+    double gap;
+    bool fixed_depth;
+  };
+  for (const Case& k : {Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, true},
+                        Case{{0.10, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, false},
+                        Case{{0.02, 0.0, 0.90}, {0.0, 0.0, 1.25}, 0.06, false},
+                        Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 0.70}, 0.06, false},
+                        Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.0, false}}) {
+    ServoConfig c = config();
+    c.workspace.min = Eigen::Vector3d(-1.0, -1.0, 0.0);
+    c.workspace.max = Eigen::Vector3d(1.0, 1.0, 0.8);
+    c.fixed_depth_gap = k.gap;
+    HandTracker h(c);
+    Fruit f = fruit_ahead();
+    f.sight.reset();
+    f.selected_from = k.fixed;
+    const fruit_t d = detection(319.5, 239.5, 125);
+    h.on_detections(image(7, {d}), f, kCamera, kT);
+    h.on_hand_targets(hand_target(7, 99, d, k.sized), f, kCamera, kT);
+    if (k.fixed_depth) {
+      EXPECT_EQ(f.depth, Fruit::Depth::kFixed);
+      EXPECT_NEAR((f.estimate - Eigen::Vector3d(0.0, 0.0, 0.55)).norm(), 0.0, 1e-9);
+    } else {
+      EXPECT_EQ(f.depth, Fruit::Depth::kSize) << k.fixed.transpose() << " / " << k.sized.z() << " / " << k.gap;
+      EXPECT_NEAR((f.estimate - k.sized).norm(), 0.0, 1e-12);
+    }
+  }
+}
+
 TEST(HandTracker, AFruitCutByTheBorderOrFillingTheImageGivesNoDepth) {
   for (const fruit_t& d : {detection(319.5, 239.5, 400),  // 400 px of 480: fills the view
                            detection(40, 239.5, 78)}) {   // bbox from x = 1: on the border
