@@ -36,7 +36,7 @@ inline constexpr Key<double> ir_overshoot{"ir_overshoot", 0.05, {0.0, 1e6}, "m",
 inline constexpr Key<double> ir_surface_reach{"ir_surface_reach", 0.12, {0.0, 1.0}, "m", "... or by this much more while the IR reads a surface that stays put ahead (0: off)"};
 inline constexpr Key<double> ir_surface_travel{"ir_surface_travel", 0.03, {1e-3, 1.0}, "m", "the IR reads a surface that stays put once the tool has come this far toward it ..."};
 inline constexpr Key<double> ir_surface_tolerance{"ir_surface_tolerance", 0.02, {1e-3, 0.2}, "m", "... its readings plus the tool's advance agreeing within this"};
-inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.07, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
+inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.05, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
 inline constexpr Key<double> front_fruit_tolerance{"front_fruit_tolerance", 0.015, {0.0, 1e6}, "m", "a fruit in front filling the view is closed on only this near the gripper axis"};
 inline constexpr Key<double> grasp_advance{"grasp_advance", 0.015, {0.0, 0.05}, "m", "the arm goes on this far along the tool axis while the gripper closes"};
 inline constexpr Key<double> ir_fold_near{"ir_fold_near", 0.02, {0.0, 0.5}, "m", "a reading this near above the grasp range ..."};
@@ -69,7 +69,7 @@ inline constexpr Key<double> same_sight_angle{"same_sight_angle", 0.02, {0.0, 0.
 inline constexpr Key<double> reused_id_distance{"reused_id_distance", 0.15, {0.0, 1e6}, "m", "a finished id seen this far from where it finished is another fruit"};
 inline constexpr Key<double> size_agreement{"size_agreement", 0.3, {0.0, 10.0}, "", "a size-based hand estimate agrees with the rays' crossing within this share of the range ..."};
 inline constexpr Key<double> size_agreement_min{"size_agreement_min", 0.1, {0.0, 10.0}, "m", "... or at least this"};
-inline constexpr Key<double> fixed_depth_gap{"fixed_depth_gap", 0.06, {0.0, 0.5}, "m", "a size-based hand estimate outside the workspace: the point of the hand's ray nearest the fixed camera's estimate instead, if the ray passes this near it and the point is inside (0: off, the attempt is given up)"};
+inline constexpr Key<double> fixed_depth_gap{"fixed_depth_gap", 0.0, {0.0, 0.5}, "m", "> 0 (e.g. 0.06): a size-based hand estimate outside the workspace: the point of the hand's ray nearest the fixed camera's estimate instead, if the ray passes this near it and the point is inside (0: off, the attempt is given up; 0.06 picked fewer on ten tree seeds, docs/demo.md)"};
 inline constexpr Key<double> fills_view{"fills_view", 0.8, {0.1, 1.0}, "", "a hand detection this share of the image height fills the view: no depth from its size"};
 inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
 inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};

@@ -126,6 +126,7 @@ TEST(ClosedLoop, FruitCutByALeafIsPlacedWhereTheTwoCamerasRaysCross) {
   }
   ServoConfig no_crossing = test_config();
   no_crossing.triangulation_gap = 0.0;
+  no_crossing.fixed_depth_gap = 0.06;  // off by default
   {
     Loop loop(spec, no_crossing);
     loop.start();

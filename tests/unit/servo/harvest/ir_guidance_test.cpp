@@ -105,12 +105,23 @@ TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   EXPECT_EQ(s.action, IrStep::Action::kAdvance);
   ASSERT_TRUE(s.note.has_value());
   EXPECT_EQ(*s.note, "IR at 10 mm, fruit 200 mm ahead: past a leaf");
-  EXPECT_NEAR(s.forward_speed, 0.381, 1e-12);  // at the estimate's speed, the leaf's reading ignored
+  // Braking by the leaf's distance, sqrt(2 x 0.8 x 0.010), not the estimate's (0.381): the "leaf" may be the fruit.
+  EXPECT_NEAR(s.forward_speed, std::sqrt(2.0 * 0.8 * 0.010), 1e-6);
   s = g.step(kT, kTool, fruit(0.2, Fruit::Depth::kCrossing), std::nullopt);
   EXPECT_EQ(s.action, IrStep::Action::kAdvance);
   EXPECT_FALSE(s.note.has_value());
-  EXPECT_EQ(g.step(kT, kTool, fruit(0.06, Fruit::Depth::kConfirmed), std::nullopt).action,
-            IrStep::Action::kClose);  // 6 cm ahead: the fruit
+  // Short of where the leaf was, a grasp reading is the leaf whatever the estimate says by then.
+  EXPECT_EQ(g.step(kT, tool_at(0.005), fruit(0.04, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
+  EXPECT_EQ(g.step(kT, tool_at(0.011), fruit(0.04, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kClose);  // past it, 4 cm ahead (<= 5 cm): the fruit
+  // An estimate just over the limit, then under it: still the leaf until the sensor has passed it (it closed 20 ms
+  // after "past a leaf" with the fruit out of the fingers' reach).
+  IrGuidance edge = guiding();
+  edge.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(edge.step(kT, kTool, fruit(0.051, Fruit::Depth::kConfirmed), std::nullopt).action, IrStep::Action::kAdvance);
+  EXPECT_EQ(edge.step(kT, tool_at(0.002), fruit(0.049, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
   IrGuidance size_only = guiding();
   size_only.on_reading(reading(0.010), kT, true);
   EXPECT_EQ(size_only.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), std::nullopt).action, IrStep::Action::kClose);
