@@ -162,8 +162,9 @@ TEST(Aiming, ARetreatEndsWhereTheWayOnClearsTheFruit) {
   EXPECT_NEAR(z({{0.05, 0.0, 0.45}}, 0.0), 0.85, 1e-9);
   EXPECT_LT(z({{0.05, 0.0, 0.45}}, 0.3), 0.85 - 0.01);
   // Never beyond abreast of the start, however far the clearance would need.
-  EXPECT_NEAR(clear_retreat(tool, Eigen::Vector3d(0.0, 0.0, 0.9), 0.15, to, {{0.2, 0.0, 0.5}}, 0.12, 0.0).translation().z(),
-              0.85, 1e-9);
+  EXPECT_NEAR(
+      clear_retreat(tool, Eigen::Vector3d(0.0, 0.0, 0.9), 0.15, to, {{0.2, 0.0, 0.5}}, 0.12, 0.0).translation().z(),
+      0.85, 1e-9);
 }
 
 TEST(Aiming, DetachPullsBackAlongTheAxisWhileTwistingAboutIt) {

@@ -187,11 +187,10 @@ TEST(HandTracker, ASizeOutsideTheWorkspaceTakesTheFixedCamerasDepthAlongTheRay) 
     double gap;
     bool fixed_depth;
   };
-  for (const Case& k : {Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, true},
-                        Case{{0.10, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, false},
-                        Case{{0.02, 0.0, 0.90}, {0.0, 0.0, 1.25}, 0.06, false},
-                        Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 0.70}, 0.06, false},
-                        Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.0, false}}) {
+  for (const Case& k :
+       {Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, true}, Case{{0.10, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.06, false},
+        Case{{0.02, 0.0, 0.90}, {0.0, 0.0, 1.25}, 0.06, false}, Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 0.70}, 0.06, false},
+        Case{{0.02, 0.0, 0.55}, {0.0, 0.0, 1.25}, 0.0, false}}) {
     ServoConfig c = config();
     c.workspace.min = Eigen::Vector3d(-1.0, -1.0, 0.0);
     c.workspace.max = Eigen::Vector3d(1.0, 1.0, 0.8);

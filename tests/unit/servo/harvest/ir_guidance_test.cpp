@@ -119,7 +119,8 @@ TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   // after "past a leaf" with the fruit out of the fingers' reach).
   IrGuidance edge = guiding();
   edge.on_reading(reading(0.010), kT, true);
-  EXPECT_EQ(edge.step(kT, kTool, fruit(0.051, Fruit::Depth::kConfirmed), std::nullopt).action, IrStep::Action::kAdvance);
+  EXPECT_EQ(edge.step(kT, kTool, fruit(0.051, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
   EXPECT_EQ(edge.step(kT, tool_at(0.002), fruit(0.049, Fruit::Depth::kConfirmed), std::nullopt).action,
             IrStep::Action::kAdvance);
   IrGuidance size_only = guiding();
