@@ -7,6 +7,11 @@
 
 namespace harvest::servo {
 
+namespace {
+// The tool point's coordinate along its own axis: where the IR's readings (the surface, a leaf) are placed.
+double along_axis(const Eigen::Isometry3d& tool) { return tool.translation().dot(tool.rotation().col(2)); }
+}  // namespace
+
 void IrGuidance::reset_attempt(const Eigen::Vector3d& tool, rt::Micros now) {
   leaf_at_.reset();
   leaf_noted_ = false;
@@ -50,7 +55,7 @@ void IrGuidance::track_surface(const Eigen::Isometry3d& tool) {
     surface_.reset();
     return;
   }
-  const double along = tool.translation().dot(tool.rotation().col(2));
+  const double along = along_axis(tool);
   const double at = along + ir_->range_m;
   if (surface_ && std::abs(at - surface_->at) <= cfg_.ir_surface_tolerance) {
     surface_->from = std::min(surface_->from, along);
@@ -75,7 +80,7 @@ double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fru
   double to_go = ahead;
   if (ir_sees_fruit) to_go = std::min(to_go, static_cast<double>(ir_->range_m) - cfg_.ir_grasp_range);
   // Passing a leaf: slow by its distance, the sensor then judges afresh what it reads (the "leaf" may be the fruit).
-  if (leaf_at_) to_go = std::min(to_go, *leaf_at_ - tool.translation().dot(tool.rotation().col(2)));
+  if (leaf_at_) to_go = std::min(to_go, *leaf_at_ - along_axis(tool));
   if (hold_at) {
     // Standing off a swaying fruit: no floor, the arm comes to rest there.
     const double to_hold = ahead - *hold_at;
@@ -115,7 +120,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // pushed off the tree by the palm (15 of 20 fruit the palm knocked off in
   // 14 full-tree runs, the IR reading them at the grasp range and the hand
   // image filled with them).
-  const double along = tool.translation().dot(tool.rotation().col(2));
+  const double along = along_axis(tool);
   if (leaf_at_ && along >= *leaf_at_) leaf_at_.reset();
   const bool in_front = !leaf_at_ && fruit_in_front.has_value();
   // Until the sensor has come as far as the leaf was, a grasp reading is that leaf whatever the estimate says by

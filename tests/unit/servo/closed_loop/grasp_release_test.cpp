@@ -79,48 +79,54 @@ TEST(ClosedLoop, DetachThatStallsGoesOnToTheDropAndAStalledDropIsAFault) {
   expect_fault_stops(loop, "motion stalled in DROP");
 }
 
+// Experiment I with a dead IR: the fruit is given up deep in the canopy.
+// Where the approach began, the tool as RETREAT starts, and its goal.
+struct RetreatSeen {
+  Eigen::Vector3d approach_from;
+  Eigen::Isometry3d tool;
+  Eigen::Vector3d goal;
+};
+RetreatSeen retreat_after_giving_up(const ServoConfig& cfg) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  Loop loop(spec, cfg);
+  loop.start();
+  RetreatSeen r;
+  EXPECT_TRUE(loop.run_until_state(State::kAcquire, 30.0)) << loop.ctrl.machine().summary();
+  r.approach_from = loop.arm.tool().translation();
+  EXPECT_TRUE(loop.run_until_state(State::kRetreat, 90.0)) << loop.ctrl.machine().summary();
+  r.tool = loop.arm.tool();
+  const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
+  EXPECT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
+  r.goal = to_isometry(c.pose_goal).translation();
+  return r;
+}
+
 // After giving a fruit up deep in the canopy, RETREAT goes back along the
 // tool axis out to abreast of where the approach began (farther than
 // retreat_distance), so the way home does not cut through the canopy
 // (retreat_clearance 0, the default; with it, a way on clear of every fruit
 // ends the retreat sooner: below).
 TEST(ClosedLoop, RetreatLeavesTheCanopyTheWayTheGripperCameIn) {
-  WorldSpec spec = experiment_one();
-  spec.ir_dead = true;
-  Loop loop(spec);
-  ASSERT_EQ(loop.cfg.retreat_clearance, 0.0);  // the default
-  loop.start();
-  ASSERT_TRUE(loop.run_until_state(State::kAcquire, 30.0)) << loop.ctrl.machine().summary();
-  const Eigen::Vector3d approach_from = loop.arm.tool().translation();
-  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 90.0)) << loop.ctrl.machine().summary();
-  const Eigen::Isometry3d tool = loop.arm.tool();
-  const Eigen::Vector3d axis = tool.rotation().col(2);
-  ASSERT_GT((tool.translation() - approach_from).dot(axis), loop.cfg.retreat_distance + 0.1);  // deep in
-  const robot_command_t c = loop.commands().back().second;  // commands() returns a copy
-  ASSERT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
-  const Eigen::Vector3d goal = to_isometry(c.pose_goal).translation();
-  EXPECT_LT((goal - tool.translation()).cross(axis).norm(), 1e-4);  // straight back
-  EXPECT_NEAR((goal - approach_from).dot(axis), 0.0, 1e-3);         // abreast of the start
+  const ServoConfig cfg = test_config();
+  ASSERT_EQ(cfg.retreat_clearance, 0.0);  // the default
+  const RetreatSeen r = retreat_after_giving_up(cfg);
+  const Eigen::Vector3d axis = r.tool.rotation().col(2);
+  ASSERT_GT((r.tool.translation() - r.approach_from).dot(axis), cfg.retreat_distance + 0.1);  // deep in
+  EXPECT_LT((r.goal - r.tool.translation()).cross(axis).norm(), 1e-4);                        // straight back
+  EXPECT_NEAR((r.goal - r.approach_from).dot(axis), 0.0, 1e-3);                               // abreast of the start
 }
 
-// retreat_clearance 0.12: the one fruit given up is the only one on the tree, 0.15 m and more
-// ahead of the way home from retreat_distance back: the retreat ends there,
-// straight back along the axis, and the next aim is turned to from there.
+// retreat_clearance 0.12: the one fruit given up is the only one on the
+// tree, 0.15 m and more ahead of the way home from retreat_distance back:
+// the retreat ends there, straight back along the axis.
 TEST(ClosedLoop, RetreatEndsWhereTheWayHomeClearsTheFruit) {
-  WorldSpec spec = experiment_one();
-  spec.ir_dead = true;
   ServoConfig cfg = test_config();
   cfg.retreat_clearance = 0.12;
-  Loop loop(spec, cfg);
-  loop.start();
-  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 90.0)) << loop.ctrl.machine().summary();
-  const Eigen::Isometry3d tool = loop.arm.tool();
-  const Eigen::Vector3d axis = tool.rotation().col(2);
-  const robot_command_t c = loop.commands().back().second;
-  ASSERT_EQ(c.type, +robot_command_t::TYPE_POSE_GOAL);
-  const Eigen::Vector3d goal = to_isometry(c.pose_goal).translation();
-  EXPECT_LT((goal - tool.translation()).cross(axis).norm(), 1e-4);
-  EXPECT_NEAR((tool.translation() - goal).dot(axis), loop.cfg.retreat_distance, 1e-3);
+  const RetreatSeen r = retreat_after_giving_up(cfg);
+  const Eigen::Vector3d axis = r.tool.rotation().col(2);
+  EXPECT_LT((r.goal - r.tool.translation()).cross(axis).norm(), 1e-4);
+  EXPECT_NEAR((r.tool.translation() - r.goal).dot(axis), cfg.retreat_distance, 1e-3);
 }
 
 }  // namespace
