@@ -554,12 +554,14 @@ void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
     return;
   }
   ir_.begin(t.translation(), now);
-  note_ = arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
-          (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
-           : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
-           : current_->depth == Fruit::Depth::kFixed
-               ? " (the fixed camera's depth along the hand's ray: its size put it outside)"
-               : " (depth from size)");
+  note_ =
+      arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
+      (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
+       : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
+       : current_->depth == Fruit::Depth::kNear ? " (depth from size, near: the rays' crossing disagreed, set aside)"
+       : current_->depth == Fruit::Depth::kFixed
+           ? " (the fixed camera's depth along the hand's ray: its size put it outside)"
+           : " (depth from size)");
   enter(State::kIrApproach, now, out);
   ir_step(now, out);  // the first IR-guided command at once
 }

@@ -92,6 +92,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.reused_id_distance = n.get(k::reused_id_distance);
   c.size_agreement = n.get(k::size_agreement);
   c.size_agreement_min = n.get(k::size_agreement_min);
+  c.crossing_beyond = n.get(k::crossing_beyond);
   c.fixed_depth_gap = n.get(k::fixed_depth_gap);
   c.fills_view = n.get(k::fills_view);
   c.front_fruit_size_ratio = n.get(k::front_fruit_size_ratio);
@@ -220,9 +221,9 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::fruit_order, k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio,
                       k::min_ahead_of_home, k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap,
                       k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle,
-                      k::reused_id_distance, k::size_agreement, k::size_agreement_min, k::fixed_depth_gap,
-                      k::fills_view, k::front_fruit_size_ratio, k::whole_fruit_border_px, k::goal_progress_step,
-                      k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
+                      k::reused_id_distance, k::size_agreement, k::size_agreement_min, k::crossing_beyond,
+                      k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio, k::whole_fruit_border_px,
+                      k::goal_progress_step, k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),
       config::section("servo_controller.drop_pose", where, k::pose::drop_position, k::pose::drop_orientation),

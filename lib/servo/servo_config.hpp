@@ -69,6 +69,7 @@ inline constexpr Key<double> same_sight_angle{"same_sight_angle", 0.02, {0.0, 0.
 inline constexpr Key<double> reused_id_distance{"reused_id_distance", 0.15, {0.0, 1e6}, "m", "a finished id seen this far from where it finished is another fruit"};
 inline constexpr Key<double> size_agreement{"size_agreement", 0.3, {0.0, 10.0}, "", "a size-based hand estimate agrees with the rays' crossing within this share of the range ..."};
 inline constexpr Key<double> size_agreement_min{"size_agreement_min", 0.1, {0.0, 10.0}, "m", "... or at least this"};
+inline constexpr Key<double> crossing_beyond{"crossing_beyond", 0.7, {0.0, 10.0}, "m", "... and a crossing that disagrees replaces the size only where the size puts the fruit at least this far from the hand camera; nearer, the size stays, unconfirmed (0: at any range; seven tree runs: of the crossings that replaced a size nearer than 0.55 m, 1-13 % were the nearer to the truth, beyond 0.9 m 99 %; docs/servo-controller.md)"};
 inline constexpr Key<double> fixed_depth_gap{"fixed_depth_gap", 0.0, {0.0, 0.5}, "m", "> 0 (e.g. 0.06): a size-based hand estimate outside the workspace: the point of the hand's ray nearest the fixed camera's estimate instead, if the ray passes this near it and the point is inside (0: off, the attempt is given up; 0.06 picked fewer on ten tree seeds, docs/demo.md)"};
 inline constexpr Key<double> fills_view{"fills_view", 0.8, {0.1, 1.0}, "", "a hand detection this share of the image height fills the view: no depth from its size"};
 inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
@@ -305,6 +306,12 @@ struct ServoConfig {
   // depth's own error is about 10 % rms, a leaf-cut fruit's a factor of 1.5.
   double size_agreement = servo_keys::size_agreement.fallback;
   double size_agreement_min = servo_keys::size_agreement_min.fallback;  // [m]
+  // ... and only where the size puts the fruit at least crossing_beyond from
+  // the hand camera does the crossing replace a size it disagrees with:
+  // nearer, the size's error is centimetres and a disagreeing crossing (the
+  // fixed camera's line of sight, taken once at the selection) was nearly
+  // always the wrong one.
+  double crossing_beyond = servo_keys::crossing_beyond.fallback;  // [m]
   // A size-based hand estimate outside the workspace (a leaf cut the fruit:
   // it looks small and far, 10-15 cm beyond the truth on the tree) whose ray
   // passes within fixed_depth_gap of the fixed camera's estimate is that

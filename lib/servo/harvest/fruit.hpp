@@ -33,10 +33,12 @@ struct Fruit {
   double diameter = 0.07;       // [m] the diameter the fixed camera assumed (the statistical size)
   // Where the estimate's depth comes from: the apparent size alone, the
   // size confirmed by where the two cameras' rays cross, that crossing
-  // (the size disagreed with it: a leaf cutting the fruit), or the fixed
-  // camera's estimate along the hand's ray (the hand's size put it outside
-  // the workspace, the rays too parallel to cross).
-  enum class Depth { kSize, kConfirmed, kCrossing, kFixed } depth = Depth::kSize;
+  // (the size disagreed with it far from the fruit: a leaf cutting the fruit),
+  // the size near the fruit where a disagreeing crossing was set aside
+  // (ServoConfig::crossing_beyond), or the fixed camera's estimate along the
+  // hand's ray (the hand's size put it outside the workspace, the rays too
+  // parallel to cross).
+  enum class Depth { kSize, kConfirmed, kCrossing, kNear, kFixed } depth = Depth::kSize;
 };
 
 }  // namespace harvest::servo

@@ -126,6 +126,8 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // Until the sensor has come as far as the leaf was, a grasp reading is that leaf whatever the estimate says by
   // then: judged again each step, an estimate just over the limit (71 mm) closed 20 ms after "past a leaf" with the
   // fruit 54 mm ahead of the tool point, out of the fingers' reach (a full-tree run).
+  // Not a size near the fruit that set a disagreeing crossing aside (kNear): usually right to a centimetre or two,
+  // but a leaf-cut fruit that looks 2.5 times too far there would have its real IR reading passed as a leaf.
   const bool checked = fruit.depth == Fruit::Depth::kConfirmed || fruit.depth == Fruit::Depth::kCrossing;
   const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && !in_front &&
                     (leaf_at_.has_value() || (checked && ahead > cfg_.ir_vision_agreement));

@@ -106,22 +106,35 @@ TEST(ClosedLoop, HandDepthOfAFruitFillingTheImageIsNotUsed) {
 
 // A leaf hides most of the fruit from the camera-in-hand: its apparent size
 // puts it 2.5 times too far, beyond the workspace. Its ray crossed with the
-// fixed camera's gives the position without the size, and it is picked;
-// without the crossing, the fixed camera's estimate along the hand's ray
-// (fixed_depth_gap) places it and it is picked; with the size alone (both
-// off) it is measured out of reach.
+// fixed camera's gives the position without the size, and it is picked: with
+// the crossing replacing the size at any range, the grasp is made on the
+// crossing; by default (crossing_beyond 0.7 m) only while the size puts the
+// fruit that far, and nearer (the size's 2.5 times then inside the
+// workspace) on the size, the IR finding the fruit. Without the crossing, the
+// fixed camera's estimate along the hand's ray (fixed_depth_gap) places it and
+// it is picked; with the size alone (both off) it is measured out of reach.
 TEST(ClosedLoop, FruitCutByALeafIsPlacedWhereTheTwoCamerasRaysCross) {
   WorldSpec spec = experiment_one();
   spec.fixed_error.setZero();
   spec.hand_depth_scale = 2.5;
+  ServoConfig any_range = test_config();
+  any_range.crossing_beyond = 0.0;
   {
-    Loop loop(spec);
+    Loop loop(spec, any_range);
     loop.start();
     ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
     expect_published(loop, 1, fruit_outcome_t::PICKED, "");
     // The estimate the grasp was made with: the true centre within a few cm
     // (the size-based one is a metre off).
     EXPECT_LT((estimate_of(*loop.outcome(1)) - spec.fruits[0].position).norm(), 0.03);
+    expect_within_limits(loop);
+  }
+  {
+    Loop loop(spec);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    expect_published(loop, 1, fruit_outcome_t::PICKED, "");
+    EXPECT_TRUE(ever_noted(loop, "depth from the rays' crossing"));  // while far
     expect_within_limits(loop);
   }
   ServoConfig no_crossing = test_config();

@@ -142,22 +142,29 @@ TEST(HandTracker, TheGateFollowsTheImageOfTheLineOfSight) {
 // Hand-worked: the rays cross at the fruit, 0.5 m from the camera: a size
 // depth within max(0.1, 0.3 x 0.5) = 0.15 m of it is kept (confirmed), a
 // leaf-cut fruit's 2.5 times too deep one is replaced by the crossing.
+// The crossing at 0.5 m; the size agrees within 0.15 m (0.3 of the range).
+// A size that disagrees is replaced only where it puts the fruit at least
+// crossing_beyond (0.7 m) from the camera: at 0.66 m it stays (kNear);
+// at 0.70 and 1.25 m the crossing replaces it; with crossing_beyond 0, at 0.66
+// too.
 TEST(HandTracker, TheRaysCrossingConfirmsOrReplacesTheSizeDepth) {
   const fruit_t d = detection(319.5, 239.5, 125);
-  for (const auto& [sized, kept] :
-       {std::pair{Eigen::Vector3d(0.0, 0.0, 0.64), true}, std::pair{Eigen::Vector3d(0.0, 0.0, 0.66), false},
-        std::pair{Eigen::Vector3d(0.0, 0.0, 1.25), false}}) {
-    HandTracker h(config());
+  struct Case {
+    double sized, beyond;
+    Fruit::Depth depth;
+    double z;
+  };
+  for (const Case& c : {Case{0.64, 0.7, Fruit::Depth::kConfirmed, 0.64}, Case{0.66, 0.7, Fruit::Depth::kNear, 0.66},
+                        Case{0.70, 0.7, Fruit::Depth::kCrossing, 0.5}, Case{1.25, 0.7, Fruit::Depth::kCrossing, 0.5},
+                        Case{0.66, 0.0, Fruit::Depth::kCrossing, 0.5}}) {
+    ServoConfig cfg = config();
+    cfg.crossing_beyond = c.beyond;
+    HandTracker h(cfg);
     Fruit f = fruit_ahead();
     h.on_detections(image(7, {d}), f, kCamera, kT);
-    h.on_hand_targets(hand_target(7, 99, d, sized), f, kCamera, kT);
-    if (kept) {
-      EXPECT_EQ(f.depth, Fruit::Depth::kConfirmed) << sized.z();
-      EXPECT_NEAR(f.estimate.z(), sized.z(), 1e-12);
-    } else {
-      EXPECT_EQ(f.depth, Fruit::Depth::kCrossing) << sized.z();
-      EXPECT_NEAR(f.estimate.z(), 0.5, 1e-6);
-    }
+    h.on_hand_targets(hand_target(7, 99, d, {0.0, 0.0, c.sized}), f, kCamera, kT);
+    EXPECT_EQ(f.depth, c.depth) << c.sized << " " << c.beyond;
+    EXPECT_NEAR(f.estimate.z(), c.z, 1e-6) << c.sized << " " << c.beyond;
   }
 }
 

@@ -97,7 +97,8 @@ TEST(IrGuidance, AFoldBackJumpIsTheFruitInsideTheGraspRange) {
 }
 
 // A grasp reading with the checked estimate 20 cm ahead (more than 7 cm) is a
-// leaf: noted once, passed. A depth from the size alone never overrules the IR.
+// leaf: noted once, passed. A depth from the size alone never overrules the IR,
+// nor does a size near the fruit that set a disagreeing crossing aside.
 TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   IrGuidance g = guiding();
   g.on_reading(reading(0.010), kT, true);
@@ -126,6 +127,10 @@ TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   IrGuidance size_only = guiding();
   size_only.on_reading(reading(0.010), kT, true);
   EXPECT_EQ(size_only.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), std::nullopt).action, IrStep::Action::kClose);
+  // Nor a size near the fruit that set a disagreeing crossing aside (a leaf-cut fruit may look too far there too).
+  IrGuidance near = guiding();
+  near.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(near.step(kT, kTool, fruit(0.2, Fruit::Depth::kNear), std::nullopt).action, IrStep::Action::kClose);
 }
 
 // A nearer fruit filling the view: closed on within 15 mm of the axis, left beside it.
