@@ -17,6 +17,23 @@ namespace {
 // Braking toward the standoff the arm nears it ever more slowly: within this it is there [m].
 constexpr double kAtStandoff = 0.01;
 
+// Where an estimate's depth comes from, in the IR-guidance note (a switch: a new Depth must be named here).
+const char* depth_source(Fruit::Depth depth) {
+  switch (depth) {
+    case Fruit::Depth::kSize:
+      return "depth from size";
+    case Fruit::Depth::kConfirmed:
+      return "depth from size, confirmed by the rays' crossing";
+    case Fruit::Depth::kCrossing:
+      return "depth from the rays' crossing, the size disagreed";
+    case Fruit::Depth::kNear:
+      return "depth from size, near: the rays' crossing disagreed, set aside";
+    case Fruit::Depth::kFixed:
+      return "the fixed camera's depth along the hand's ray: its size put it outside";
+  }
+  return "depth from size";
+}
+
 }  // namespace
 
 HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
@@ -554,14 +571,8 @@ void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
     return;
   }
   ir_.begin(t.translation(), now);
-  note_ =
-      arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) + " mm" +
-      (current_->depth == Fruit::Depth::kConfirmed  ? " (depth from size, confirmed by the rays' crossing)"
-       : current_->depth == Fruit::Depth::kCrossing ? " (depth from the rays' crossing, the size disagreed)"
-       : current_->depth == Fruit::Depth::kNear ? " (depth from size, near: the rays' crossing disagreed, set aside)"
-       : current_->depth == Fruit::Depth::kFixed
-           ? " (the fixed camera's depth along the hand's ray: its size put it outside)"
-           : " (depth from size)");
+  note_ = arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) +
+          " mm (" + depth_source(current_->depth) + ")";
   enter(State::kIrApproach, now, out);
   ir_step(now, out);  // the first IR-guided command at once
 }
