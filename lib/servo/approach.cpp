@@ -39,13 +39,14 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
     // The fruit seen, in the base frame, then in the tool frame.
     const Eigen::Vector3d seen_base = seen_in_base(camera_, in.camera, *in.pixel, in.fruit_base);
     e = tool_inv * seen_base;
-    if (in.forward_speed && gains_.sway_window > 0.0) {
+    const double window = in.mean_window.value_or(gains_.sway_window);
+    if (in.forward_speed && window > 0.0) {
       // Under IR guidance (near the fruit, centred, its depth good): the mean
       // of its positions over the window, seen from the tool now. Earlier
       // views are left out: far off the image centre, their depth error moves
       // them sideways.
       if (seen_.empty() || in.pixel->utime > seen_.back().utime) seen_.push_back({in.pixel->utime, seen_base});
-      while (seen_.front().utime < in.pixel->utime - rt::from_seconds(gains_.sway_window)) seen_.pop_front();
+      while (seen_.front().utime < in.pixel->utime - rt::from_seconds(window)) seen_.pop_front();
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (const auto& s : seen_) mean += s.base;
       const Eigen::Vector3d q = tool_inv * (mean / static_cast<double>(seen_.size()));

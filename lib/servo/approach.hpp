@@ -40,6 +40,8 @@ struct ApproachInput {
   // (the gripper axis for the reconstruction approach, the camera axis for
   // teach by zooming) instead of regulating the depth error (thesis HarvestStep5).
   std::optional<double> forward_speed;
+  // Under IR guidance: centre on the fruit's mean position over this long (unset: gains.sway_window).
+  std::optional<double> mean_window;
 };
 
 struct ApproachOutput {

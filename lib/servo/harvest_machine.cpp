@@ -206,6 +206,7 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
 }
 
 void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
+  release_due_.reset();
   // Every fruit is selected and aimed at from home (the view the fixed camera's estimate is good for): a
   // start anywhere else (after an e-stop next to the canopy) backs out along the tool axis and returns first.
   if (pose_reached(tool(), cfg_.home_pose, {cfg_.position_tolerance, cfg_.orient_tolerance})) {
@@ -312,6 +313,7 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
 MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros now) {
   MachineOutput out;
   gripper_ = msg;
+  if (release_due_ && released(msg)) release_due_.reset();  // whatever the state: DONE may come first
   if (!running()) return out;
   if (const auto f = gripper_fault(msg)) {
     fault(*f, now, out);
@@ -357,6 +359,7 @@ MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Mic
       paused_ = false;
       // Timeouts do not run while paused.
       if (deadline_ != 0) deadline_ += now - paused_at_;
+      if (release_due_) *release_due_ += now - paused_at_;
       goal_.shift(now - paused_at_);
       commands_.ramp_from_rest();
       note_ = "resumed by " + who;
@@ -420,6 +423,11 @@ MachineOutput HarvestMachine::tick(rt::Micros now) {
   if (stop_pending_) {
     stop_pending_ = false;
     out.robot = stop();
+  }
+  if (release_due_ && now >= *release_due_) {  // in any state: DONE may come first, the fruit still in the hand
+    release_due_.reset();
+    fault("gripper did not report open in time (letting go of a picked fruit while retreating)", now, out);
+    return out;
   }
   if (!running()) return out;
   if (!robot_fresh(now)) {
@@ -489,7 +497,14 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
       enter(State::kIrApproach, now, out);
       break;
     case State::kDetach:
-      if (cfg_.release_at_detach) {
+      if (cfg_.release_at_detach && cfg_.release_while_retreating) {
+        // Off the tree and in the hand: it is let go as the arm backs out instead of at rest first (the gripper
+        // opens in a third of a second, the retreat's ramp has hardly started), and counted picked now.
+        out.gripper = gripper(gripper_command_t::ACTION_OPEN);
+        release_due_ = now + rt::from_seconds(cfg_.timeouts.release);
+        end_fruit(fruit_outcome_t::PICKED, "", now, out);
+        head_home(approach_from_.has_value(), now, out);
+      } else if (cfg_.release_at_detach) {
         // The fruit falls onto the catching frame where the pull ended (HarvestStep5 opens where it grasped).
         release(now, out);
       } else {
@@ -624,8 +639,10 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
       out.robot = twist(Twist{});  // never advance blind
       break;
     case IrStep::Action::kAdvance:
-      out.robot =
-          twist(approach_->update({now, t, camera(), current_->estimate, hand_pixel(now), s.forward_speed}).twist);
+      out.robot = twist(approach_
+                            ->update({now, t, camera(), current_->estimate, hand_pixel(now), s.forward_speed,
+                                      tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window})
+                            .twist);
       break;
   }
 }
@@ -645,6 +662,18 @@ std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Iso
     if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing ||
         current_->depth == Fruit::Depth::kFixed)
       return std::nullopt;
+    if (p.tree_still_skips_hold && tree_still(now)) {
+      // The fixed camera, standing still, sees the tree still: the spread is the moving hand camera's error
+      // (depth, pose timing, pieces of the fruit), not a sway.
+      held_ = true;
+      const TreeSwayGauge::Reading& tree = tree_.reading();
+      note_ = fmt::format(
+          "the tree is still ({:.1f} mm rms over {} fruit in the fixed camera): {:.0f} mm rms across "
+          "the axis not held for",
+          tree.rms * 1e3, tree.fruit, spread * 1e3);
+      out.status_changed = true;
+      return std::nullopt;
+    }
     const double ahead = ahead_along_axis(tool, current_->estimate);
     if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
     if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on

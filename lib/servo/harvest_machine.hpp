@@ -233,6 +233,8 @@ class HarvestMachine {
   // Where the approach into the canopy began (the tool at the end of ORIENT):
   // a retreat goes back along the tool axis at least that far.
   std::optional<Eigen::Vector3d> approach_from_;
+  // release_while_retreating: the gripper was told to open as the retreat began; it must say so by then.
+  std::optional<rt::Micros> release_due_;
   bool next_after_retreat_ = false;    // the retreat under way ends a fruit: select at its end (straight_to_next)
   bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
   bool joint_limit_met_ = false;       // a joint met its limit going in since the arm was last home

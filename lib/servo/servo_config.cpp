@@ -73,6 +73,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.pull_distance = n.get(k::pull_distance);
   c.twist_angle = n.get(k::twist_angle);
   c.release_at_detach = n.get(k::release_at_detach);
+  c.release_while_retreating = n.get(k::release_while_retreating);
   c.straight_to_next = n.get(k::straight_to_next);
   c.home_after_joint_limit = n.get(k::home_after_joint_limit);
   c.release_opening = n.get(k::release_opening);
@@ -167,6 +168,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.tree_min_fruit = sw.get(ks::tree_min_fruit);
   c.sway.tree_quantile = sw.get(ks::tree_quantile);
   c.sway.tree_still_rms = sw.get(ks::tree_still_rms);
+  c.sway.tree_still_skips_hold = sw.get(ks::tree_still_skips_hold);
   if (c.sway.tree_min_span > c.sway.tree_window) sw.fail("tree_min_span", "a span no longer than tree_window");
   if (c.sway.max_frequency_hz < c.sway.min_frequency_hz)
     sw.fail("max_frequency_hz", "a frequency no lower than min_frequency_hz");
@@ -179,6 +181,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.gains.derivative_filter = g.get(k::gains::derivative_filter);
   c.gains.centring_tolerance = g.get(k::gains::centring_tolerance);
   c.gains.sway_window = g.get(k::gains::sway_window);
+  c.gains.still_window = g.get(k::gains::still_window);
   c.gains.kp_orient = g.get(k::gains::kp_orient);
   c.gains.kd_orient = g.get(k::gains::kd_orient);
 
@@ -210,25 +213,26 @@ std::vector<config::Section> ServoConfig::schema() {
   namespace w = k::workspace;
   const std::string where = "harvest-servo-controller, config/servo/controller.yaml (docs/servo-controller.md).";
   return {
-      config::section("servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
-                      k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance,
-                      k::ir_approach_speed, k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel,
-                      k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance,
-                      k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near,
-                      k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance, k::position_tolerance,
-                      k::retreat_distance, k::retreat_clearance, k::palm_offset, k::pull_distance, k::twist_angle,
-                      k::release_at_detach, k::straight_to_next, k::home_after_joint_limit, k::release_opening,
-                      k::fruit_order, k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio,
-                      k::min_ahead_of_home, k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap,
-                      k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle,
-                      k::reused_id_distance, k::size_agreement, k::size_agreement_min, k::crossing_beyond,
-                      k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio, k::whole_fruit_border_px,
-                      k::goal_progress_step, k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
+      config::section(
+          "servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
+          k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance, k::ir_approach_speed,
+          k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel, k::ir_overshoot,
+          k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement,
+          k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
+          k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::retreat_clearance,
+          k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
+          k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order, k::max_attempts_per_fruit,
+          k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle, k::view_angle,
+          k::view_distance, k::triangulation_gap, k::min_triangulation_angle, k::image_pose_gap, k::same_fruit_distance,
+          k::same_sight_angle, k::reused_id_distance, k::size_agreement, k::size_agreement_min, k::crossing_beyond,
+          k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio, k::whole_fruit_border_px, k::goal_progress_step,
+          k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),
       config::section("servo_controller.drop_pose", where, k::pose::drop_position, k::pose::drop_orientation),
       config::section("servo_controller.gains", where, g::kp_lateral, g::kd_lateral, g::kp_depth, g::kd_depth,
-                      g::derivative_filter, g::centring_tolerance, g::sway_window, g::kp_orient, g::kd_orient),
+                      g::derivative_filter, g::centring_tolerance, g::sway_window, g::still_window, g::kp_orient,
+                      g::kd_orient),
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost,
                       t::reacquire, t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
       config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span,
@@ -237,7 +241,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::sway::max_centre_offset, k::sway::close_delay, k::sway::close_tolerance, k::sway::hold_spread,
                       k::sway::hold_standoff, k::sway::hold_time, k::sway::hold_check, k::sway::still_spread,
                       k::sway::max_wait, k::sway::tree_window, k::sway::tree_min_span, k::sway::tree_min_fruit,
-                      k::sway::tree_quantile, k::sway::tree_still_rms),
+                      k::sway::tree_quantile, k::sway::tree_still_rms, k::sway::tree_still_skips_hold),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,
                       k::tbz::max_match_age_s, k::tbz::fallback_after_s, k::tbz::min_verified_share,
                       k::tbz::desired_wait_s, k::tbz::arrived_rotation, k::tbz::arrived_translation),

@@ -51,6 +51,7 @@ inline constexpr Key<double> palm_offset{"palm_offset", 0.05, {0.0, 0.5}, "m", "
 inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
 inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
+inline constexpr Key<bool> release_while_retreating{"release_while_retreating", true, {}, "", "... and with release_at_detach, the gripper opens as the retreat begins, the fruit counted picked then (it is off the tree, in the hand); it must report open within timeouts_s.release or the controller faults (false: RELEASE at rest first)"};
 inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "select the next fruit at the end of a retreat and turn to it from there (false: home first, the thesis)"};
 inline constexpr Key<bool> home_after_joint_limit{"home_after_joint_limit", true, {}, "", "after an approach during which the robot link reported a joint at its position limit, go home before the next fruit (the way home resets the arm's posture)"};
 inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
@@ -103,6 +104,7 @@ inline constexpr Key<double> kd_depth{"kd_depth", 0.0, {0.0, 1e6}, "s", "its der
 inline constexpr Key<double> derivative_filter{"derivative_filter", 0.5, {0.0, 1.0}, "", "low-pass weight of the newest error derivative"};
 inline constexpr Key<double> centring_tolerance{"centring_tolerance", 0.005, {0.0, 1e6}, "m", "advance no faster than the centring brings the fruit within this of the gripper axis (0: no bound)"};
 inline constexpr Key<double> sway_window{"sway_window", 2.5, {0.0, 1e6}, "s", "under IR guidance, centre on the fruit's mean position over this long (0: its newest)"};
+inline constexpr Key<double> still_window{"still_window", 0.3, {0.0, 1e6}, "s", "... but while the fixed camera sees the tree still (sway.tree_*), over this long instead (0: its newest; the nearest views are the best, the oldest were taken up to 45 cm away)"};
 inline constexpr Key<double> kp_orient{"kp_orient", 2.0, {0.01, 100.0}, "1/s", "orient_law thesis_pd: gain on the aim angles (eq. 6-24)"};
 inline constexpr Key<double> kd_orient{"kd_orient", 0.05, {0.0, 1e6}, "s", "its derivative gain"};
 }  // namespace gains
@@ -145,6 +147,7 @@ inline constexpr Key<double> tree_min_span{"tree_min_span", 3.0, {0.0, 60.0}, "s
 inline constexpr Key<int> tree_min_fruit{"tree_min_fruit", 3, {1, 1000}, "", "... and with fewer fruit counted the gauge cannot tell (the hold runs as without it) ..."};
 inline constexpr Key<double> tree_quantile{"tree_quantile", 0.25, {0.0, 1.0}, "", "... the fruit at this quantile of the centroids' spread (rms, in metres at the fruit) stands for the tree: the arm passing in front of a few moves their centroids, wind moves all ..."};
 inline constexpr Key<double> tree_still_rms{"tree_still_rms", 0.004, {0.0, 1.0}, "m", "... below this the tree is still: a hold for a sway ends at hold_check whatever the held views spread, and the close is not timed (still trees 0.2-0.8 mm at the quarter, tree_wind 15 mm at 0.4 Hz 8-11 mm)"};
+inline constexpr Key<bool> tree_still_skips_hold{"tree_still_skips_hold", true, {}, "", "... and while it reads still, a fruit that spreads more than hold_spread is not held at all: it is centred on its newest views (gains.still_window) on the way in (false: held until hold_check)"};
 }  // namespace sway
 namespace tbz {  // approach_mode tbz
 inline constexpr Key<double> lambda_w{"lambda_w", 2.0, {0.0, 100.0}, "1/s", "rotation gain (eq. 5-44)"};
@@ -184,6 +187,7 @@ struct Gains {
   // amplitude away when the fingers meet, from where it was last seen up to
   // nearly two.
   double sway_window = servo_keys::gains::sway_window.fallback;
+  double still_window = servo_keys::gains::still_window.fallback;
   // orient_law thesis_pd: omega = kp_orient e + kd_orient de/dt on the angles of eq. 6-19, 6-20, 6-23 (eq. 6-24)
   double kp_orient = servo_keys::gains::kp_orient.fallback;   // [1/s]
   double kd_orient = servo_keys::gains::kd_orient.fallback;  // [s]
@@ -255,6 +259,7 @@ struct ServoConfig {
   double pull_distance = servo_keys::pull_distance.fallback;        // [m] detach: pull back along the tool axis ...
   double twist_angle = servo_keys::twist_angle.fallback;        // [rad] ... while twisting about it
   bool release_at_detach = servo_keys::release_at_detach.fallback;      // open the gripper where the pull ended (false: carry it to drop_pose first)
+  bool release_while_retreating = servo_keys::release_while_retreating.fallback;  // let go on the way out, not at rest
   // After a pick (or a failure that retreats) the next fruit is selected at
   // the end of the retreat, out of the canopy, and ORIENT goes straight there
   // to its aim from home: no stop at home in between. A fruit aimed at from a
@@ -368,6 +373,7 @@ struct ServoConfig {
     int tree_min_fruit = servo_keys::sway::tree_min_fruit.fallback;
     double tree_quantile = servo_keys::sway::tree_quantile.fallback;      // 0..1
     double tree_still_rms = servo_keys::sway::tree_still_rms.fallback;    // [m]
+    bool tree_still_skips_hold = servo_keys::sway::tree_still_skips_hold.fallback;
   } sway;
   // approach_mode tbz (servo/tbz_approach.hpp, docs/teach-by-zooming.md).
   struct Tbz {

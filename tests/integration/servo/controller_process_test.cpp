@@ -217,8 +217,9 @@ TEST_F(ServoProcess, StartLeadsToMotionCommandsAndAPickWithinTheSpeedLimit) {
   EXPECT_GT(goals, 0);
   // A one-line summary in the process's log on each change (complete once it has stopped).
   EXPECT_EQ(controller_->stop(5s), 0);
-  EXPECT_NE(controller_->output().find("RELEASE fruit 1 | picked 0"), std::string::npos) << controller_->output();
-  EXPECT_NE(controller_->output().find("| picked 1, lost 0"), std::string::npos) << controller_->output();
+  // The fruit is let go as the retreat begins (release_while_retreating): DETACH, then RETREAT with it picked.
+  EXPECT_NE(controller_->output().find("DETACH fruit 1 | picked 0"), std::string::npos) << controller_->output();
+  EXPECT_NE(controller_->output().find("RETREAT | picked 1, lost 0"), std::string::npos) << controller_->output();
   std::printf("live: %zu commands (%d twist, %d pose goal), fastest %.4f m/s, cycle %.2f s\n", commands.size(), twists,
               goals, fastest, status.outcomes[0].cycle_time_s);
 }

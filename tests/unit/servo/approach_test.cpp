@@ -85,7 +85,7 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
   g.kp_lateral = 2.0;
   g.kd_lateral = 0.0;
   g.sway_window = 2.5;
-  auto follow = [&](Gains gains, std::optional<double> forward) {
+  auto follow = [&](Gains gains, std::optional<double> forward, std::optional<double> window = std::nullopt) {
     ReconstructionApproach a(gains, pinhole());
     ApproachOutput out;
     for (int i = 0; i <= 75; ++i) {  // 30 Hz for 2.5 s, from a quarter period: ends at the crest
@@ -96,6 +96,7 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
       in.fruit_base = Eigen::Vector3d(x, 0.0, 0.3);
       in.pixel = PixelMeasurement{pinhole().cx + pinhole().fx * x / 0.3, pinhole().cy, in.now};
       in.forward_speed = forward;
+      in.mean_window = window;
       out = a.update(in);
     }
     return out;
@@ -105,8 +106,11 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
   EXPECT_LT(std::abs(mean.twist.linear.x()), 0.002);
   // Before IR guidance, and with no window, the newest position: the crest.
   EXPECT_NEAR(follow(g, std::nullopt).error.x(), 0.015, 1e-6);
+  // A window given with the input (gains.still_window on a still tree) overrides gains.sway_window.
+  EXPECT_NEAR(follow(g, 0.1, 0.0).error.x(), 0.015, 1e-6);
   g.sway_window = 0.0;
   EXPECT_NEAR(follow(g, 0.1).error.x(), 0.015, 1e-6);
+  EXPECT_LT(std::abs(follow(g, 0.1, 2.5).error.x()), 0.001);
 }
 
 // The camera beside the gripper axis and tilted (hand-eye not the identity):

@@ -59,7 +59,9 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(ClosedLoop, GripperThatNeverOpensAtTheDropIsAFaultAndStops) {
   WorldSpec spec = experiment_one();
   spec.gripper_wont_open = true;
-  Loop loop(spec);
+  ServoConfig cfg = test_config();
+  cfg.release_while_retreating = false;  // RELEASE at rest (the way out: grasp_release_test.cpp)
+  Loop loop(spec, cfg);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kRelease, 60.0)) << loop.ctrl.machine().summary();
   expect_fault_stops(loop, "gripper did not report open in time");

@@ -47,10 +47,13 @@ TEST(ClosedLoop, FruitSlippingFromTheGripperIsAFailedGrasp) {
 // does not carry out is a fault: the controller stops the arm and latches,
 // it does not wait 20 s.
 // By default the fruit is let go where the pull ended (it falls onto the
-// catching frame): no carry to drop_pose, one gripper OPEN, picked.
+// catching frame): no carry to drop_pose, one gripper OPEN, picked. (Here at
+// rest, in RELEASE: release_while_retreating off.)
 TEST(ClosedLoop, FruitIsReleasedWhereThePullEnded) {
   WorldSpec spec = experiment_one();
-  Loop loop(spec);
+  ServoConfig cfg = test_config();
+  cfg.release_while_retreating = false;
+  Loop loop(spec, cfg);
   ASSERT_TRUE(loop.cfg.release_at_detach);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kRelease, 30.0)) << loop.ctrl.machine().summary();
@@ -64,6 +67,65 @@ TEST(ClosedLoop, FruitIsReleasedWhereThePullEnded) {
   const auto states = published_states(loop);
   EXPECT_EQ(std::count(states.begin(), states.end(), "DROP"), 0);
   EXPECT_EQ(std::count(states.begin(), states.end(), "RELEASE"), 1);
+}
+
+// release_while_retreating (default): the gripper is told to open as the retreat begins, no RELEASE at rest;
+// the fruit counts as picked at the pull's end, the gripper's opening (here 0.6 s, RELEASE ends half open)
+// sooner than with RELEASE at rest.
+TEST(ClosedLoop, FruitIsLetGoWhileRetreating) {
+  double at_rest_cycle = 0.0;
+  for (const bool overlap : {false, true}) {
+    WorldSpec spec = experiment_one();
+    spec.gripper_open_s = 0.6;
+    ServoConfig cfg = test_config();
+    ASSERT_TRUE(cfg.release_while_retreating);  // the default
+    cfg.release_while_retreating = overlap;
+    Loop loop(spec, cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    ASSERT_NE(loop.outcome(1), nullptr);
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+    const auto states = published_states(loop);
+    EXPECT_EQ(std::count(states.begin(), states.end(), "RELEASE"), overlap ? 0 : 1);
+    if (!overlap) {
+      at_rest_cycle = loop.outcome(1)->cycle_time_s;
+      continue;
+    }
+    EXPECT_LT(loop.outcome(1)->cycle_time_s, at_rest_cycle - 0.25);
+    EXPECT_TRUE(loop.world.fruit_picked(1));
+    const auto detach = std::find(states.begin(), states.end(), "DETACH");
+    ASSERT_NE(detach, states.end());
+    ASSERT_NE(detach + 1, states.end());
+    EXPECT_EQ(*(detach + 1), "RETREAT");
+    EXPECT_FALSE(ever_noted(loop, "did not report open"));
+    // The OPEN went out as the retreat began.
+    rt::Micros retreat_at = 0, open_at = 0;
+    for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus))
+      if (st.state == "RETREAT" && retreat_at == 0) retreat_at = time;
+    for (const auto& [time, g] : loop.bus.messages<gripper_command_t>(ch::kGripperCommand))
+      if (g.action == gripper_command_t::ACTION_OPEN && open_at == 0) open_at = time;
+    EXPECT_NE(retreat_at, 0);
+    EXPECT_EQ(open_at, retreat_at);
+  }
+}
+
+// ... and a gripper that never reports open is a fault within timeouts_s.release: the arm stops and stays.
+TEST(ClosedLoop, AGripperThatNeverLetsGoWhileRetreatingIsAFaultAndStops) {
+  WorldSpec spec = experiment_one();
+  spec.gripper_wont_open = true;
+  ServoConfig cfg = test_config();
+  cfg.release_while_retreating = true;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kRetreat, 60.0)) << loop.ctrl.machine().summary();
+  const double retreat_at = loop.t();
+  ASSERT_TRUE(loop.run_until_state(State::kFault, 30.0)) << loop.ctrl.machine().summary();
+  EXPECT_NEAR(loop.t() - retreat_at, cfg.timeouts.release, 0.1);
+  EXPECT_TRUE(ever_noted(loop, "gripper did not report open in time (letting go of a picked fruit while retreating)"));
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+  const Eigen::Vector3d held = loop.arm.tool().translation();
+  loop.at(loop.t() + 1.0);
+  EXPECT_LT((loop.arm.tool().translation() - held).norm(), 1e-9) << "the arm moved while faulted";
 }
 
 TEST(ClosedLoop, DetachThatStallsGoesOnToTheDropAndAStalledDropIsAFault) {

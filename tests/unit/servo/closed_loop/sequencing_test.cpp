@@ -153,11 +153,13 @@ TEST(ClosedLoopSequencing, AFruitGivenUpBeforeGoingInIsFollowedStraightByTheNext
 
 // The gripper takes 0.6 s to open: with release_opening 0.5 RELEASE ends
 // once it reports OPENING half open (the fruit is free), with 1 only at OPEN.
+// (RELEASE at rest: release_while_retreating off.)
 TEST(ClosedLoopSequencing, ReleaseEndsOnceTheGripperHasOpenedReleaseOpeningOfTheWay) {
   for (const double opening : {0.5, 1.0}) {
     WorldSpec spec = experiment_one();
     spec.gripper_open_s = 0.6;
     ServoConfig cfg = test_config();
+    cfg.release_while_retreating = false;
     cfg.release_opening = opening;
     Loop loop(spec, cfg);
     loop.start();

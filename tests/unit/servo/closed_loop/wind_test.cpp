@@ -119,6 +119,7 @@ ServoConfig gauged() {
 TEST(ClosedLoop, OnAStillTreeAHoldEndsAtTheCheck) {
   for (const bool with_gauge : {true, false}) {
     ServoConfig cfg = with_gauge ? gauged() : test_config();
+    cfg.sway.tree_still_skips_hold = false;  // the hold itself (skipped by default: the next test)
     cfg.sway.hold_spread = 0.00005;
     cfg.sway.still_spread = 0.0;
     Loop loop(experiment_one(), cfg);
@@ -140,14 +141,37 @@ TEST(ClosedLoop, OnAStillTreeAHoldEndsAtTheCheck) {
   }
 }
 
+// With sway.tree_still_skips_hold (default) the same fruit is not held at all: the gauge reads the tree still
+// before the approach reaches the standoff, so it goes in without braking for a hold. Without the gauge's word
+// (one fruit, fewer than tree_min_fruit's default 3) it is held as before.
+TEST(ClosedLoop, OnAStillTreeAFruitThatLooksToSwayIsNotHeld) {
+  for (const bool with_gauge : {true, false}) {
+    ServoConfig cfg = with_gauge ? gauged() : test_config();
+    ASSERT_TRUE(cfg.sway.tree_still_skips_hold);  // the default
+    cfg.sway.hold_spread = 0.00005;
+    Loop loop(experiment_one(), cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED);
+    EXPECT_EQ(ever_noted(loop, "the tree is still (0.0 mm rms over 1 fruit in the fixed camera): "), with_gauge);
+    EXPECT_EQ(ever_noted(loop, "mm rms across the axis not held for"), with_gauge);
+    EXPECT_EQ(ever_noted(loop, "mm rms across the axis): held"), !with_gauge);
+  }
+}
+
+// A swaying tree holds its fruit the whole hold_time, whether or not a still tree would skip the hold.
 TEST(ClosedLoop, ASwayingTreeStillHoldsItsFruit) {
-  Loop loop(swaying(2.0), gauged());
-  loop.start();
-  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
-  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
-  EXPECT_TRUE(ever_noted(loop, "mm rms across the axis): held"));
-  EXPECT_TRUE(ever_noted(loop, "held 2.5 s"));
-  EXPECT_FALSE(ever_noted(loop, "the tree is still"));
+  for (const bool skips : {false, true}) {
+    ServoConfig cfg = gauged();
+    cfg.sway.tree_still_skips_hold = skips;
+    Loop loop(swaying(2.0), cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+    EXPECT_TRUE(ever_noted(loop, "mm rms across the axis): held"));
+    EXPECT_TRUE(ever_noted(loop, "held 2.5 s"));
+    EXPECT_FALSE(ever_noted(loop, "the tree is still"));
+  }
 }
 
 }  // namespace
