@@ -97,6 +97,11 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
   head_home(retreat, now, out);
 }
 
+void HarvestMachine::picked(rt::Micros now, MachineOutput& out) {
+  end_fruit(fruit_outcome_t::PICKED, "", now, out);
+  head_home(approach_from_ && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
+}
+
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
     // Out of the canopy the next fruit can be turned to straight from there (its aim from home); after a joint met
@@ -329,8 +334,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
     out.gripper = gripper(gripper_command_t::ACTION_OPEN);
     fail_fruit(fruit_outcome_t::FAILED_GRASP, "fruit slipped from the gripper", false, now, out);
   } else if (state_ == State::kRelease && current_ && released(msg)) {
-    end_fruit(fruit_outcome_t::PICKED, "", now, out);
-    head_home(approach_from_ && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
+    picked(now, out);
   }
   return out;
 }
@@ -502,8 +506,7 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
         // opens in a third of a second, the retreat's ramp has hardly started), and counted picked now.
         out.gripper = gripper(gripper_command_t::ACTION_OPEN);
         release_due_ = now + rt::from_seconds(cfg_.timeouts.release);
-        end_fruit(fruit_outcome_t::PICKED, "", now, out);
-        head_home(approach_from_.has_value(), now, out);
+        picked(now, out);
       } else if (cfg_.release_at_detach) {
         // The fruit falls onto the catching frame where the pull ended (HarvestStep5 opens where it grasped).
         release(now, out);

@@ -187,6 +187,8 @@ class HarvestMachine {
   void fail_fruit(int8_t outcome, const std::string& detail, bool retreat, rt::Micros now, MachineOutput& out);
   // Out of the canopy the way the gripper came in (`retreat`: back along the tool axis first), then home.
   void head_home(bool retreat, rt::Micros now, MachineOutput& out);
+  // The fruit is off the tree (let go where the pull ended, or at the drop pose): PICKED, then the way out.
+  void picked(rt::Micros now, MachineOutput& out);
   // Records an outcome of the current fruit and lets it go.
   void end_fruit(int8_t outcome, const std::string& detail, rt::Micros now, MachineOutput& out);
   void noted(const fruit_outcome_t& o, MachineOutput& out);
