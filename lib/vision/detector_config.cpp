@@ -41,6 +41,7 @@ DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
     c.learned.threshold = n.get(learned_keys::threshold);
     c.learned.merge_within = n.get(learned_keys::merge_within);
     c.learned.score_visible = n.get(learned_keys::score_visible);
+    c.learned.rescale_above = n.get(learned_keys::rescale_above);
     // Load it now: a bad file is an error at start (and for --check-config), not at the first frame.
     try {
       LearnedDetector check(c.learned);
@@ -87,9 +88,9 @@ config::Section DetectorConfig::schema(const std::string& path, const std::strin
   namespace t = threshold_keys;
   namespace l = learned_keys;
   return config::section(
-      path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible, t::cr_min,
-      t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr, k::kd_per_m,
-      k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching, k::split_min_radius_px,
+      path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible, l::rescale_above,
+      t::cr_min, t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr,
+      k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching, k::split_min_radius_px,
       k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min,
       k::reject_shapes, k::min_roundness, k::min_solidity, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
 }

@@ -39,6 +39,13 @@ inline constexpr Key<bool> score_visible{
     "score_visible", false, {}, "",
     "mode learned: a fruit's confidence, compared with threshold, is sqrt(peak x visible fraction) instead of the "
     "peak (docs/perception.md: thresholds 0.4-0.45)"};
+// The training crops are 160 px square at the training scale: a fruit much wider than ~110 px there is beyond what
+// the diameter map learnt (measured on the field look, camera in hand: 339 px of 640 read 0.96 of true, 374 px 0.83,
+// 393 px 0.69), and a depth from it is too far.
+inline constexpr Key<double> rescale_above{
+    "rescale_above", 110.0, {0.0, 4096.0}, "px",
+    "mode learned: a fruit wider than this at the network's input scale is measured again on the frame at half that "
+    "scale, where it lies within the sizes the network learnt (0: never)"};
 }  // namespace learned_keys
 
 struct LearnedConfig {
@@ -47,6 +54,7 @@ struct LearnedConfig {
   double threshold = learned_keys::threshold.fallback;
   double merge_within = learned_keys::merge_within.fallback;
   bool score_visible = learned_keys::score_visible.fallback;
+  double rescale_above = learned_keys::rescale_above.fallback;
 };
 
 class LearnedDetector {
@@ -62,6 +70,9 @@ class LearnedDetector {
   // mask's share of the fruit's disc) and confidence (the peak). Depth and
   // cost are the caller's (FruitDetector), as for the colour modes.
   std::vector<Fruit> detect(const cv::Mat3b& bgr);
+
+  // Fruits of `bgr` scaled to `width` (a multiple of kStride), in the frame's pixels.
+  std::vector<Fruit> detect_at(const cv::Mat3b& bgr, int width);
 
   // The raw network output (1x3xH/4xW/4) for an input already at the
   // network's size (parity test with PyTorch).
