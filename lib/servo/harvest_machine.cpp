@@ -599,7 +599,8 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
   const Eigen::Isometry3d t = tool();
   // Waiting to close on a swaying fruit: the IR said "inside" already (its reading changes as the fruit swings).
   const IrStep s = close_wait_since_ ? IrStep{IrStep::Action::kClose, 0.0, 0.0, std::nullopt}
-                                     : ir_.step(now, t, *current_, hand_.fruit_in_front(now), sway_hold(now, t, out));
+                                     : ir_.step(now, t, *current_, hand_.fruit_in_front(now), sway_hold(now, t, out),
+                                                hand_.seen_whole(now));
   if (s.note) {
     note_ = *s.note;
     out.status_changed = true;

@@ -73,6 +73,8 @@ inline constexpr Key<double> size_agreement_min{"size_agreement_min", 0.1, {0.0,
 inline constexpr Key<double> crossing_beyond{"crossing_beyond", 0.7, {0.0, 10.0}, "m", "... and a crossing that disagrees replaces the size only where the size puts the fruit at least this far from the hand camera; nearer, the size stays, unconfirmed (0: at any range; seven tree runs: of the crossings that replaced a size nearer than 0.55 m, 1-13 % were the nearer to the truth, beyond 0.9 m 99 %; docs/servo-controller.md)"};
 inline constexpr Key<double> fixed_depth_gap{"fixed_depth_gap", 0.0, {0.0, 0.5}, "m", "> 0 (e.g. 0.06): a size-based hand estimate outside the workspace: the point of the hand's ray nearest the fixed camera's estimate instead, if the ray passes this near it and the point is inside (0: off, the attempt is given up; 0.06 picked fewer on ten tree seeds, docs/demo.md)"};
 inline constexpr Key<double> fills_view{"fills_view", 0.8, {0.1, 1.0}, "", "a hand detection this share of the image height fills the view: no depth from its size"};
+inline constexpr Key<double> far_view_ahead{"far_view_ahead", 0.10, {0.0, 1e6}, "m", "an IR grasp reading while the followed fruit is seen whole in a fresh hand image and its estimate lies this far ahead of the tool point or more, whatever the depth's source, is a leaf in front of it (0: off)"};
+inline constexpr Key<double> far_view_age{"far_view_age", 0.15, {0.0, 1.0}, "s", "... a hand image no older than this (the tool comes at most 57 mm nearer meanwhile)"};
 inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
 inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};
 inline constexpr Key<double> goal_progress_step{"goal_progress_step", 0.002, {1e-5, 0.1}, "m", "a pose-goal motion progresses by getting this much nearer (timeouts_s.stall without: blocked) ..."};
@@ -329,6 +331,12 @@ struct ServoConfig {
   // fruit in front of it.
   double fills_view = servo_keys::fills_view.fallback;
   double front_fruit_size_ratio = servo_keys::front_fruit_size_ratio.fallback;
+  // An IR grasp reading while the followed fruit is whole in a hand image no
+  // older than far_view_age and its estimate (from that image's apparent
+  // size, or the rays' crossing) lies far_view_ahead or more ahead of the
+  // tool point: the IR reads a leaf in front of it, whatever the depth's source.
+  double far_view_ahead = servo_keys::far_view_ahead.fallback;  // [m]
+  double far_view_age = servo_keys::far_view_age.fallback;  // [s]
   int whole_fruit_border_px = servo_keys::whole_fruit_border_px.fallback;  // [px] a detection this near the image border is cut by it: no depth from its size
   // A pose-goal motion progresses by getting goal_progress_step or
   // goal_progress_angle nearer its goal (timeouts.stall without: blocked).

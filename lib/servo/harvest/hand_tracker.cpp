@@ -19,6 +19,10 @@ std::optional<double> HandTracker::fruit_in_front(rt::Micros now) const {
   return std::nullopt;
 }
 
+bool HandTracker::seen_whole(rt::Micros now) const {
+  return pixel_ && pixel_whole_ && now - pixel_->utime <= rt::from_seconds(cfg_.far_view_age);
+}
+
 void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
                                 rt::Micros now) {
   const geometry::CameraModel& k = cfg_.hand_camera;

@@ -49,6 +49,9 @@ class HandTracker {
   // A fruit nearer than the current one filled the view on the gripper axis
   // within timeouts.lost: how far its centre lies off the axis [m].
   std::optional<double> fruit_in_front(rt::Micros now) const;
+  // The followed fruit is whole in a hand image no older than far_view_age: its apparent size is a depth, taken
+  // now (ServoConfig::far_view_ahead).
+  bool seen_whole(rt::Micros now) const;
 
  private:
   // The current fruit where the camera-in-hand's ray through `pixel` crosses

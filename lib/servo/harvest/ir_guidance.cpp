@@ -92,7 +92,7 @@ double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fru
 }
 
 IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit,
-                        std::optional<double> fruit_in_front, std::optional<double> hold_at) {
+                        std::optional<double> fruit_in_front, std::optional<double> hold_at, bool seen_whole) {
   IrStep out;
   // The fold-back rule reads a tool moving in: a leaf or a neighbour in the beam of one standing off a fruit, then
   // gone from it as the tool moves again, is no fruit inside.
@@ -128,9 +128,17 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // fruit 54 mm ahead of the tool point, out of the fingers' reach (a full-tree run).
   // Not a size near the fruit that set a disagreeing crossing aside (kNear): usually right to a centimetre or two,
   // but a leaf-cut fruit that looks 2.5 times too far there would have its real IR reading passed as a leaf.
+  // Whatever the depth's source, a fruit seen whole in a fresh hand image with its estimate a decimetre or more ahead
+  // is far: a whole fruit's size errs by ~10 % of the camera's distance (2-3 cm there), and at the grasp range the
+  // estimate is 0-5 cm ahead. In wind the rays' crossing disagrees with a fruit that has swung on, so its depth is the
+  // size's alone (kSize, kNear) and two tree_wind runs closed 9 times on a leaf 12-55 cm before such a fruit (the
+  // estimate 12-55 cm ahead, the fruit whole in the hand image within 0.3 s); the 30 closes at a fruit had it -1..4 cm
+  // ahead. Not a fruit cut by the image border or filling it: its size is no depth.
   const bool checked = fruit.depth == Fruit::Depth::kConfirmed || fruit.depth == Fruit::Depth::kCrossing;
-  const bool leaf = at_grasp_range && cfg_.ir_vision_agreement > 0 && !in_front &&
-                    (leaf_at_.has_value() || (checked && ahead > cfg_.ir_vision_agreement));
+  const bool far_in_view = seen_whole && cfg_.far_view_ahead > 0 && ahead >= cfg_.far_view_ahead;
+  const bool leaf = at_grasp_range && !in_front &&
+                    (leaf_at_.has_value() ||
+                     (cfg_.ir_vision_agreement > 0 && checked && ahead > cfg_.ir_vision_agreement) || far_in_view);
   if (leaf) {  // the leaf, not the fruit
     if (!leaf_at_) {
       const double range = folded_ && last_near_ ? *last_near_ : std::max(0.0, static_cast<double>(ir_->range_m));
@@ -142,7 +150,8 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   if (leaf && !leaf_noted_) {
     leaf_noted_ = true;
     out.note = "IR at " + std::to_string(std::lround(ir_->range_m * 1000)) + " mm, fruit " +
-               std::to_string(std::lround(ahead * 1000)) + " mm ahead: past a leaf";
+               std::to_string(std::lround(ahead * 1000)) + " mm ahead" + (far_in_view ? ", seen whole" : "") +
+               ": past a leaf";
   }
   if (at_grasp_range && !leaf) {
     // A fruit in front of the one aimed at, too far off the gripper axis to

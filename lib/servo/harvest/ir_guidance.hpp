@@ -50,8 +50,10 @@ class IrGuidance {
   // (from the hand tracker): a nearer fruit fills the view, its centre this
   // far off the axis. `hold_at`: stop this far short of the fruit's centre
   // (braking at ir_braking_decel; the tool standing there is not blocked).
+  // `seen_whole` (from the hand tracker): the fruit is whole in a fresh hand
+  // image, so its estimate's depth is current (ServoConfig::far_view_ahead).
   IrStep step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit, std::optional<double> fruit_in_front,
-              std::optional<double> hold_at = std::nullopt);
+              std::optional<double> hold_at = std::nullopt, bool seen_whole = false);
 
   // The forward speed for the range still to go (the IR range if it sees the
   // fruit, the estimate always): the speed from which braking at

@@ -113,16 +113,30 @@ TEST(ClosedLoop, FruitInFrontBesideTheGripperAxisIsNeitherGraspedNorPushedPast) 
 
 // ... but not with a depth from the apparent size alone (here the rays do
 // not cross: the fixed camera's estimate is 145 mm off across its line of
-// sight): that depth may be decimetres off, and the IR reading is taken.
-TEST(ClosedLoop, LeafRuleNeedsATriangulatedEstimate) {
+// sight): that depth may be decimetres off, and the IR reading is taken ...
+// unless the fruit is seen whole in a fresh hand image with its estimate a
+// decimetre or more ahead (far_view_ahead): then its size is a current depth
+// from the whole fruit, and what the IR reads 15 cm before it is a leaf.
+TEST(ClosedLoop, LeafRuleNeedsATriangulatedEstimateOrTheFruitSeenWholeAndFar) {
   WorldSpec spec = experiment_one();
   spec.leaf_before_fruit_m = 0.15;
-  Loop loop(spec);
+  ServoConfig off = test_config();
+  off.far_view_ahead = 0.0;
+  Loop loop(spec, off);
   loop.start();
   ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
   ASSERT_TRUE(loop.world.close_position().has_value());
   EXPECT_GT((*loop.world.close_position() - spec.fruits[0].position).norm(), 0.1);  // closed at the leaf
   EXPECT_FALSE(ever_noted(loop, "past a leaf"));
+
+  Loop seen(spec);
+  ASSERT_GT(test_config().far_view_ahead, 0.0);
+  seen.start();
+  ASSERT_TRUE(seen.run_until_state(State::kDone, 60.0)) << seen.ctrl.machine().summary();
+  EXPECT_EQ(seen.outcome(1)->outcome, +fruit_outcome_t::PICKED) << seen.outcome(1)->detail;
+  ASSERT_TRUE(seen.world.close_position().has_value());
+  EXPECT_LT((*seen.world.close_position() - spec.fruits[0].position).norm(), 0.02);
+  EXPECT_TRUE(ever_noted(seen, "seen whole: past a leaf"));
 }
 
 // A leaf 12 cm before the fruit: at the leaf's reading the fruit aimed at

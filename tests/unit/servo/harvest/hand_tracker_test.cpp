@@ -259,3 +259,28 @@ TEST(HandTracker, ANearerFruitFillingTheViewOnTheAxisIsReportedWithItsOffset) {
 
 }  // namespace
 }  // namespace harvest::servo
+
+namespace harvest::servo {
+namespace {
+
+// far_view_age 0.15 s (the default): the followed fruit, whole in an image 0.1 or 0.15 s old, is seen whole; not
+// once the image is 0.16 s old, nor cut by the image border, nor filling the view.
+TEST(HandTracker, AFruitIsSeenWholeOnlyInAFreshImageClearOfTheBorder) {
+  const rt::Micros taken = kT;
+  const auto follow = [&](const fruit_t& d) {
+    HandTracker h(config());
+    Fruit f = fruit_ahead();
+    h.on_detections(image(taken, {d}), f, kCamera, taken + 30'000);
+    return h;
+  };
+  const HandTracker small = follow(detection(319.5, 239.5, 125));
+  EXPECT_TRUE(small.seen_whole(taken + rt::from_seconds(0.1)));
+  EXPECT_TRUE(small.seen_whole(taken + rt::from_seconds(0.15)));
+  EXPECT_FALSE(small.seen_whole(taken + rt::from_seconds(0.16)));
+  EXPECT_FALSE(follow(detection(60, 239.5, 125)).seen_whole(taken + 50'000));     // cut by the left border
+  EXPECT_FALSE(follow(detection(319.5, 239.5, 400)).seen_whole(taken + 50'000));  // fills the view (0.8 x 480)
+  EXPECT_FALSE(HandTracker(config()).seen_whole(taken));                          // nothing followed
+}
+
+}  // namespace
+}  // namespace harvest::servo

@@ -133,6 +133,42 @@ TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   EXPECT_EQ(near.step(kT, kTool, fruit(0.2, Fruit::Depth::kNear), std::nullopt).action, IrStep::Action::kClose);
 }
 
+// A fruit seen whole in a fresh hand image with its estimate 10 cm or more ahead is far, whatever its depth's
+// source: a grasp reading then is a leaf in front of it (in wind the crossing disagrees with a fruit that has swung
+// on: its depth is the size's alone). Not 9 cm ahead, not unless seen whole, not with a nearer fruit filling the view.
+TEST(IrGuidance, AGraspReadingWhileTheFruitIsSeenWholeAndFarIsALeaf) {
+  for (const Fruit::Depth depth : {Fruit::Depth::kSize, Fruit::Depth::kNear}) {
+    IrGuidance g = guiding();
+    g.on_reading(reading(0.010), kT, true);
+    const IrStep s = g.step(kT, kTool, fruit(0.1, depth), std::nullopt, std::nullopt, true);
+    EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+    ASSERT_TRUE(s.note.has_value());
+    EXPECT_EQ(*s.note, "IR at 10 mm, fruit 100 mm ahead, seen whole: past a leaf");
+    // Past the leaf, a grasp reading with the fruit 4 cm ahead is the fruit.
+    EXPECT_EQ(g.step(kT, tool_at(0.011), fruit(0.04, depth), std::nullopt, std::nullopt, true).action,
+              IrStep::Action::kClose);
+    IrGuidance nearer = guiding();
+    nearer.on_reading(reading(0.010), kT, true);
+    EXPECT_EQ(nearer.step(kT, kTool, fruit(0.09, depth), std::nullopt, std::nullopt, true).action,
+              IrStep::Action::kClose);
+    IrGuidance unseen = guiding();
+    unseen.on_reading(reading(0.010), kT, true);
+    EXPECT_EQ(unseen.step(kT, kTool, fruit(0.2, depth), std::nullopt, std::nullopt, false).action,
+              IrStep::Action::kClose);
+  }
+  IrGuidance front = guiding();
+  front.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(front.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), 0.010, std::nullopt, true).action,
+            IrStep::Action::kClose);
+  ServoConfig off_cfg;
+  off_cfg.far_view_ahead = 0.0;
+  IrGuidance off(off_cfg);
+  off.begin(kTool.translation(), kT);
+  off.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(off.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), std::nullopt, std::nullopt, true).action,
+            IrStep::Action::kClose);
+}
+
 // A nearer fruit filling the view: closed on within 15 mm of the axis, left beside it.
 TEST(IrGuidance, ANearerFruitInTheWayIsClosedOnOnlyNearTheAxis) {
   IrGuidance g = guiding();
