@@ -20,6 +20,16 @@ float at(const cv::Mat& maps, int c, int y, int x) { return maps.ptr<float>(0, c
 
 double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
+// A fruit's size in the frame's pixels, from its x and y diameters: the mean diameter, the disc's area, the box.
+void set_size(Fruit& f, double diameter_x, double diameter_y) {
+  f.diameter_x_px = diameter_x;
+  f.diameter_y_px = diameter_y;
+  f.diameter_px = 0.5 * (diameter_x + diameter_y);
+  f.area_px = std::numbers::pi * 0.25 * diameter_x * diameter_y;
+  f.bbox = cv::Rect(cv::Point(cvRound(f.u - 0.5 * diameter_x), cvRound(f.v - 0.5 * diameter_y)),
+                    cv::Size(cvRound(diameter_x), cvRound(diameter_y)));
+}
+
 }  // namespace
 
 LearnedDetector::LearnedDetector(const LearnedConfig& config) : config_(config) {
@@ -160,13 +170,7 @@ std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
           best = &c;
         }
       }
-      if (!best) continue;
-      f->diameter_x_px = best->diameter_x_px;
-      f->diameter_y_px = best->diameter_y_px;
-      f->diameter_px = best->diameter_px;
-      f->area_px = best->area_px;
-      f->bbox = cv::Rect(cv::Point(cvRound(f->u - 0.5 * f->diameter_x_px), cvRound(f->v - 0.5 * f->diameter_y_px)),
-                         cv::Size(cvRound(f->diameter_x_px), cvRound(f->diameter_y_px)));
+      if (best) set_size(*f, best->diameter_x_px, best->diameter_y_px);
     }
   }
   return fruits;
@@ -184,14 +188,9 @@ std::vector<Fruit> LearnedDetector::detect_at(const cv::Mat3b& bgr, int width) {
   for (Fruit& f : fruits) {
     f.u *= sx;
     f.v *= sy;
-    f.diameter_x_px = f.diameter_px * sx;
-    f.diameter_y_px = f.diameter_px * sy;
-    f.diameter_px = 0.5 * (f.diameter_x_px + f.diameter_y_px);
-    f.area_px = std::numbers::pi * 0.25 * f.diameter_x_px * f.diameter_y_px;
+    set_size(f, f.diameter_px * sx, f.diameter_px * sy);
     f.roundness = 1.0;
     f.solidity = 1.0;
-    f.bbox = cv::Rect(cv::Point(cvRound(f.u - 0.5 * f.diameter_x_px), cvRound(f.v - 0.5 * f.diameter_y_px)),
-                      cv::Size(cvRound(f.diameter_x_px), cvRound(f.diameter_y_px)));
   }
   return fruits;
 }
