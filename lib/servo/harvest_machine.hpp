@@ -178,9 +178,26 @@ class HarvestMachine {
   // RETREAT goal: back by retreat_distance, or out of the canopy to abreast
   // of where the approach began, whichever is farther.
   Eigen::Vector3d home_x() const { return cfg_.home_pose.rotation().col(0); }  // the roll ORIENT_PD holds
-  Eigen::Isometry3d retreat_goal() const { return back_along_axis(tool(), approach_from_, cfg_.retreat_distance); }
+  Eigen::Isometry3d retreat_goal(const Eigen::Isometry3d& from, double at_least) const {
+    return back_along_axis(from, approach_from_, at_least);
+  }
   // ... or, the straight way to the next aim following it, only as far as that way needs to clear the fruit.
-  Eigen::Isometry3d clear_retreat_goal() const;
+  Eigen::Isometry3d clear_retreat_goal(const Eigen::Isometry3d& from, double at_least) const;
+  // The goal of the way out from `from` (at least `at_least` back): decides next_after_retreat_.
+  Eigen::Isometry3d way_out(const Eigen::Isometry3d& from, double at_least);
+  // pull_through: DETACH's goal is the retreat's end; the pull is over once the tool has come pull_distance back.
+  bool pulls_through() const {
+    return cfg_.pull_through && cfg_.release_at_detach && cfg_.release_while_retreating && approach_from_.has_value();
+  }
+  bool pulled_off(const Eigen::Isometry3d& tool) const {
+    return pull_from_ &&
+           (pull_from_->translation() - tool.translation()).dot(pull_from_->rotation().col(2)) >= cfg_.pull_distance;
+  }
+  // The fruit off the tree and in the hand: open the gripper, PICKED, and on out (RETREAT): on the goal under way
+  // (pull_through) or on a new one.
+  void let_go_on_the_way_out(bool goal_under_way, rt::Micros now, MachineOutput& out);
+  // pull_through's goal refused or blocked before the fruit came off: the plain pull from here instead.
+  void pull_first(const std::string& why, rt::Micros now, MachineOutput& out);
 
   // Ends the current fruit with an outcome; `retreat` pulls back along the
   // tool axis before returning home.
@@ -237,6 +254,7 @@ class HarvestMachine {
   std::optional<Eigen::Vector3d> approach_from_;
   // release_while_retreating: the gripper was told to open as the retreat began; it must say so by then.
   std::optional<rt::Micros> release_due_;
+  std::optional<Eigen::Isometry3d> pull_from_;  // pull_through: the tool where the fingers took hold (DETACH only)
   bool next_after_retreat_ = false;    // the retreat under way ends a fruit: select at its end (straight_to_next)
   bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
   bool joint_limit_met_ = false;       // a joint met its limit going in since the arm was last home

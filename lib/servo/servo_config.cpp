@@ -74,6 +74,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.twist_angle = n.get(k::twist_angle);
   c.release_at_detach = n.get(k::release_at_detach);
   c.release_while_retreating = n.get(k::release_while_retreating);
+  c.pull_through = n.get(k::pull_through);
   c.straight_to_next = n.get(k::straight_to_next);
   c.home_after_joint_limit = n.get(k::home_after_joint_limit);
   c.release_opening = n.get(k::release_opening);
@@ -222,12 +223,12 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near,
                       k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance, k::position_tolerance,
                       k::retreat_distance, k::retreat_clearance, k::palm_offset, k::pull_distance, k::twist_angle,
-                      k::release_at_detach, k::release_while_retreating, k::straight_to_next, k::home_after_joint_limit,
-                      k::release_opening, k::fruit_order, k::max_attempts_per_fruit, k::association_gate_px,
-                      k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle, k::view_angle,
-                      k::view_distance, k::triangulation_gap, k::min_triangulation_angle, k::image_pose_gap,
-                      k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,
-                      k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view,
+                      k::release_at_detach, k::release_while_retreating, k::pull_through, k::straight_to_next,
+                      k::home_after_joint_limit, k::release_opening, k::fruit_order, k::max_attempts_per_fruit,
+                      k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle,
+                      k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
+                      k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
+                      k::size_agreement, k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view,
                       k::front_fruit_size_ratio, k::far_view_ahead, k::far_view_age, k::whole_fruit_border_px,
                       k::goal_progress_step, k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),

@@ -57,12 +57,18 @@ void ArmDouble::step() {
   if (estopped) fault_ = true;  // a stopped arm either way; reported as MODE_ESTOP below
   if (spec_.robot_silent_after_s && t >= *spec_.robot_silent_after_s) return;
   const bool valid = cmd_ && now() - cmd_rx_ <= cmd_->validity_us && !fault_;
+  const bool pose_goal = valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL;
+  if (pose_goal && cmd_->goal_id != last_goal_id_) {
+    last_goal_id_ = cmd_->goal_id;
+    goal_refused_ = refused_goals_ < spec_.arm_refuses_next_goals;
+    if (goal_refused_) ++refused_goals_;
+  }
+  const bool refused = pose_goal && goal_refused_;
   Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
   if (valid && cmd_->type == robot_command_t::TYPE_TWIST) {
     v = Eigen::Vector3d(cmd_->twist.linear[0], cmd_->twist.linear[1], cmd_->twist.linear[2]);
     w = Eigen::Vector3d(cmd_->twist.angular[0], cmd_->twist.angular[1], cmd_->twist.angular[2]);
-  } else if (valid && cmd_->type == robot_command_t::TYPE_POSE_GOAL &&
-             !(spec_.arm_ignores_goals_after_s && t >= *spec_.arm_ignores_goals_after_s) &&
+  } else if (pose_goal && !refused && !(spec_.arm_ignores_goals_after_s && t >= *spec_.arm_ignores_goals_after_s) &&
              !(spec_.arm_max_turn_in_place && wide_turn_in_place(to_isometry(cmd_->pose_goal)))) {
     const Eigen::Isometry3d goal = to_isometry(cmd_->pose_goal);
     const Eigen::Vector3d dp = goal.translation() - tool_.translation();
@@ -91,6 +97,7 @@ void ArmDouble::step() {
   while (cameras_.front().first < now() - rt::kSecond) cameras_.pop_front();
   s.tool_twist = to_twist(v, w);
   s.fault_text = fault_ ? "joint 2 following error" : "";
+  if (refused) s.fault_flags |= arm::kFlagRefused;
   if (spec_.arm_joint_limit_in_twists && valid && cmd_->type == robot_command_t::TYPE_TWIST && v.norm() > 0.0)
     s.fault_flags |= arm::kFlagJointLimit | arm::kFlagLimited;
   publish(ch::kRobotState, s);

@@ -81,6 +81,9 @@ struct WorldSpec {
   // The first pose goal (the first ORIENT) stops this far short of its
   // position (a joint limit just before it) and is never reached.
   std::optional<double> arm_first_goal_stops_short_m;
+  // The next this many new pose goals (counted from when it is raised) are refused, as the robot link refuses a goal
+  // it finds unreachable: no motion, kFlagRefused in every state while that goal is resent.
+  int arm_refuses_next_goals = 0;
   bool fruit_slips = false;          // a held fruit falls out of the gripper 0.2 s after the grasp
   bool fixed_camera_silent = false;  // no fixed-camera TARGETS at all
   bool fixed_ids_follow_order =
@@ -120,6 +123,9 @@ class ArmDouble final : public rt::Node {
   rt::Micros start_ = 0;
   bool fault_ = false;
   std::optional<int64_t> first_goal_id_;
+  int64_t last_goal_id_ = 0;                                      // the newest pose goal id seen
+  int refused_goals_ = 0;                                         // how many have been refused (arm_refuses_next_goals)
+  bool goal_refused_ = false;                                     // ... and whether the newest was
   std::deque<std::pair<rt::Micros, Eigen::Isometry3d>> cameras_;  // camera poses of the last second's steps
 };
 

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <optional>
 
 #include "closed_loop/loop.hpp"
 #include "servo/geometry.hpp"
@@ -106,6 +107,96 @@ TEST(ClosedLoop, FruitIsLetGoWhileRetreating) {
       if (g.action == gripper_command_t::ACTION_OPEN && open_at == 0) open_at = time;
     EXPECT_NE(retreat_at, 0);
     EXPECT_EQ(open_at, retreat_at);
+  }
+}
+
+// pull_through (default): the pull and the retreat are one pose goal, the arm does not stop where the pull ends;
+// the gripper opens once the tool has come pull_distance back from where the fingers took hold, and the way out
+// ends where the pull-then-retreat did (the same goal, twisted the same).
+TEST(ClosedLoop, ThePullRunsOnIntoTheRetreatAndLetsGoOnTheWay) {
+  Eigen::Isometry3d way_out_end[2];
+  for (const bool through : {false, true}) {
+    ServoConfig cfg = test_config();
+    ASSERT_TRUE(cfg.pull_through);  // the default
+    cfg.pull_through = through;
+    Loop loop(experiment_one(), cfg);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kDetach, 30.0)) << loop.ctrl.machine().summary();
+    const Eigen::Isometry3d grasped = loop.arm.tool();
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    // When DETACH and RETREAT began (their first status), and the pose goals sent in each.
+    rt::Micros detach_at = 0, retreat_at = 0;
+    for (const auto& [time, st] : loop.bus.messages<harvest_status_t>(ch::kHarvestStatus)) {
+      if (st.state == "DETACH" && detach_at == 0) detach_at = time;
+      if (st.state == "RETREAT" && retreat_at == 0) retreat_at = time;
+    }
+    ASSERT_GT(retreat_at, detach_at);
+    std::vector<int64_t> detach_ids, retreat_ids;
+    Eigen::Isometry3d retreat_goal = Eigen::Isometry3d::Identity();
+    for (const auto& [at, c] : loop.commands()) {
+      if (c.type != robot_command_t::TYPE_POSE_GOAL) continue;
+      if (at >= detach_at && at < retreat_at) detach_ids.push_back(c.goal_id);
+      if (at >= retreat_at && retreat_ids.empty()) retreat_goal = to_isometry(c.pose_goal);
+      if (at >= retreat_at) retreat_ids.push_back(c.goal_id);
+    }
+    ASSERT_FALSE(detach_ids.empty());
+    ASSERT_FALSE(retreat_ids.empty());
+    EXPECT_EQ(retreat_ids.front() == detach_ids.back(), through) << "one goal for the pull and the retreat";
+    way_out_end[through] = retreat_goal;
+    ASSERT_NE(loop.outcome(1), nullptr);
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+    EXPECT_TRUE(loop.world.fruit_picked(1));
+    if (!through) continue;
+    // The OPEN went out at the let-go, pull_distance back along the axis, the arm moving on at speed.
+    rt::Micros open_at = 0;
+    for (const auto& [time, g] : loop.bus.messages<gripper_command_t>(ch::kGripperCommand))
+      if (g.action == gripper_command_t::ACTION_OPEN && open_at == 0) open_at = time;
+    EXPECT_EQ(open_at, retreat_at);
+    std::optional<robot_state_t> at_open;  // the newest robot state the let-go was decided on
+    for (const auto& [time, st] : loop.bus.messages<robot_state_t>(ch::kRobotState))
+      if (time <= open_at) at_open = st;
+    ASSERT_TRUE(at_open.has_value());
+    const Eigen::Isometry3d tool = to_isometry(at_open->tool_pose);
+    const double back = (grasped.translation() - tool.translation()).dot(grasped.rotation().col(2));
+    EXPECT_NEAR(back, cfg.pull_distance, 0.01);
+    const auto& v = at_open->tool_twist.linear;
+    EXPECT_GT(Eigen::Vector3d(v[0], v[1], v[2]).norm(), 0.5 * cfg.max_linear_speed)
+        << "the arm stopped where the pull ended";
+  }
+  EXPECT_LT((way_out_end[0].translation() - way_out_end[1].translation()).norm(), 0.005);
+  EXPECT_LT(Eigen::AngleAxisd(way_out_end[0].rotation().transpose() * way_out_end[1].rotation()).angle(), 0.01);
+}
+
+// ... and when the robot link refuses that one motion (no path to the retreat's end from the grasp: a joint near
+// its limit), the fruit still on the tree, the pull alone goes on at once, then the retreat: picked, no DROP.
+// The same when the motion gets nowhere (stalled): the pull alone, not the drop.
+TEST(ClosedLoop, AWayOutRefusedOrStalledFromTheGraspFallsBackToThePullAlone) {
+  for (const bool refused : {true, false}) {
+    Loop loop(experiment_one());
+    ASSERT_TRUE(loop.cfg.pull_through);
+    loop.start();
+    ASSERT_TRUE(loop.run_until_state(State::kGrasp, 30.0)) << loop.ctrl.machine().summary();
+    if (refused)
+      loop.spec.arm_refuses_next_goals = 1;
+    else
+      loop.spec.arm_ignores_goals_after_s = loop.t();
+    ASSERT_TRUE(loop.run_until_state(State::kDetach, 5.0)) << loop.ctrl.machine().summary();
+    const double detach_at = loop.t();
+    if (!refused) {
+      loop.at(detach_at + loop.cfg.timeouts.stall + 0.1);
+      loop.spec.arm_ignores_goals_after_s.reset();
+    }
+    ASSERT_TRUE(loop.run_until_state(State::kRetreat, 10.0)) << loop.ctrl.machine().summary();
+    const std::string why = refused ? "refused by the robot link" : "stalled";
+    EXPECT_TRUE(ever_noted(loop, "the way out from the grasp " + why + ": pulling first")) << why;
+    if (refused) EXPECT_LT(loop.t() - detach_at, 1.5) << "waited for the stall instead of reading the refusal";
+    ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    ASSERT_NE(loop.outcome(1), nullptr);
+    EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+    EXPECT_TRUE(loop.world.fruit_picked(1));
+    const auto states = published_states(loop);
+    EXPECT_EQ(std::count(states.begin(), states.end(), "DROP"), 0);
+    EXPECT_EQ(std::count(states.begin(), states.end(), "FAULT"), 0);
   }
 }
 
