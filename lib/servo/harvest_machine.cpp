@@ -336,12 +336,12 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
   if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
   if (!running()) return out;
   if (const auto f = robot_fault(msg)) fault(*f, now, out);
-  // The way out in one motion from the grasp refused (the link found no path to its end from here, a joint near
-  // its limit): the fruit still on the tree, the pull alone. A tick's grace: a state sent before the link had the
-  // goal says nothing about it.
-  if (state_ == State::kDetach && pull_from_ && (msg.fault_flags & arm::kFlagRefused) != 0 &&
+  // A pose goal the robot link refused (no path it can run from here: a joint near its limit, the way leaving the
+  // workspace) is blocked now, not after timeouts_s.stall without progress (pull_through's way out: the pull
+  // alone). A tick's grace: a state sent before the link had the goal says nothing about it.
+  if (running() && spec(state_).motion == Motion::kPoseGoal && (msg.fault_flags & arm::kFlagRefused) != 0 &&
       now - entered_at_ > rt::from_seconds(cfg_.tick_period_s))
-    pull_first("refused by the robot link", now, out);
+    motion_blocked("refused by the robot link", now, out);
   const bool going_in = state_ == State::kApproach || state_ == State::kIrApproach || state_ == State::kBackoff;
   if (going_in && (msg.fault_flags & arm::kFlagJointLimit) != 0) joint_limit_met_ = true;
   return out;

@@ -200,6 +200,24 @@ TEST(ClosedLoop, AWayOutRefusedOrStalledFromTheGraspFallsBackToThePullAlone) {
   }
 }
 
+// Any pose goal the robot link refuses is blocked at once, not after the stall time: a refused first turn is
+// judged within a few ticks as a blocked turn (here: the fruit aimed at from a viewpoint instead, and picked).
+TEST(ClosedLoop, APoseGoalTheRobotLinkRefusesIsBlockedAtOnce) {
+  Loop loop(experiment_one());
+  loop.spec.arm_refuses_next_goals = 1;
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kOrient, 10.0)) << loop.ctrl.machine().summary();
+  const double orient_at = loop.t();
+  loop.at(orient_at + 0.2);  // well inside timeouts_s.stall (2 s)
+  ASSERT_LT(0.2, loop.cfg.timeouts.stall);
+  EXPECT_TRUE(
+      ever_noted(loop, "fruit 1: the arm could not turn to it (refused by the robot link), aiming from a viewpoint"))
+      << loop.ctrl.machine().summary();
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+  ASSERT_NE(loop.outcome(1), nullptr);
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
+}
+
 // ... and a gripper that never reports open is a fault within timeouts_s.release: the arm stops and stays.
 TEST(ClosedLoop, AGripperThatNeverLetsGoWhileRetreatingIsAFaultAndStops) {
   WorldSpec spec = experiment_one();
