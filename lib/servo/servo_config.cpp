@@ -103,6 +103,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.whole_fruit_border_px = n.get(k::whole_fruit_border_px);
   c.goal_progress_step = n.get(k::goal_progress_step);
   c.goal_progress_angle = n.get(k::goal_progress_angle);
+  c.goal_progress_joint_speed = n.get(k::goal_progress_joint_speed);
   c.in_view_margin = n.get(k::in_view_margin);
   c.sight_aim_margin = n.get(k::sight_aim_margin);
   c.approach_mode = n.get(k::approach_mode);
@@ -216,21 +217,21 @@ std::vector<config::Section> ServoConfig::schema() {
   namespace w = k::workspace;
   const std::string where = "harvest-servo-controller, config/servo/controller.yaml (docs/servo-controller.md).";
   return {
-      config::section("servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
-                      k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance,
-                      k::ir_approach_speed, k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel,
-                      k::ir_overshoot, k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance,
-                      k::ir_vision_agreement, k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near,
-                      k::ir_fold_jump, k::ir_progress_step, k::ir_attempts, k::orient_tolerance, k::position_tolerance,
-                      k::retreat_distance, k::retreat_clearance, k::palm_offset, k::pull_distance, k::twist_angle,
-                      k::release_at_detach, k::release_while_retreating, k::pull_through, k::straight_to_next,
-                      k::home_after_joint_limit, k::release_opening, k::fruit_order, k::max_attempts_per_fruit,
-                      k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home, k::max_aim_angle,
-                      k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
-                      k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance,
-                      k::size_agreement, k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view,
-                      k::front_fruit_size_ratio, k::far_view_ahead, k::far_view_age, k::whole_fruit_border_px,
-                      k::goal_progress_step, k::goal_progress_angle, k::in_view_margin, k::sight_aim_margin),
+      config::section(
+          "servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
+          k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance, k::ir_approach_speed,
+          k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel, k::ir_overshoot,
+          k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement,
+          k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
+          k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::retreat_clearance,
+          k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
+          k::pull_through, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
+          k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home,
+          k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
+          k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,
+          k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio,
+          k::far_view_ahead, k::far_view_age, k::whole_fruit_border_px, k::goal_progress_step, k::goal_progress_angle,
+          k::goal_progress_joint_speed, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),
       config::section("servo_controller.drop_pose", where, k::pose::drop_position, k::pose::drop_orientation),

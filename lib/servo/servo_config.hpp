@@ -80,6 +80,7 @@ inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.
 inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};
 inline constexpr Key<double> goal_progress_step{"goal_progress_step", 0.002, {1e-5, 0.1}, "m", "a pose-goal motion progresses by getting this much nearer (timeouts_s.stall without: blocked) ..."};
 inline constexpr Key<double> goal_progress_angle{"goal_progress_angle", 0.01, {1e-5, 0.5}, "rad", "... or this much"};
+inline constexpr Key<double> goal_progress_joint_speed{"goal_progress_joint_speed", 0.02, {0.0, 10.0}, "rad/s", "... or, on the way home (RETURN, HOMING), while a joint turns faster than this (the joint-space way to the home posture swings the elbow about a tool that stays put; 0: the tool only)"};
 inline constexpr Key<double> in_view_margin{"in_view_margin", 0.2, {0.0, 0.49}, "", "an ORIENT blocked with the estimate this far (share of each side) inside the hand image goes on to ACQUIRE"};
 inline constexpr Key<double> sight_aim_margin{"sight_aim_margin", 0.07, {0.0, 0.5}, "rad", "aiming along a line of sight: the hand camera's half field of view less this"};
 inline constexpr config::Choice approach_mode{"approach_mode", "reconstruction", {"reconstruction", "tbz"}, "approach strategy (approach.hpp)"};
@@ -344,6 +345,7 @@ struct ServoConfig {
   // goal_progress_angle nearer its goal (timeouts.stall without: blocked).
   double goal_progress_step = servo_keys::goal_progress_step.fallback;  // [m]
   double goal_progress_angle = servo_keys::goal_progress_angle.fallback;  // [rad]
+  double goal_progress_joint_speed = servo_keys::goal_progress_joint_speed.fallback;  // [rad/s] a turning joint: progress
   // An ORIENT blocked with the estimate this far (share of each image side)
   // inside the hand image goes on to ACQUIRE from where it stopped.
   double in_view_margin = servo_keys::in_view_margin.fallback;

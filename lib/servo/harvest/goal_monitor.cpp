@@ -19,12 +19,12 @@ void GoalMonitor::start(const Eigen::Isometry3d& goal, rt::Micros now) {
   progress_at_ = now;
 }
 
-bool GoalMonitor::stalled(const Eigen::Isometry3d& tool, rt::Micros now) {
+bool GoalMonitor::stalled(const Eigen::Isometry3d& tool, rt::Micros now, bool joints_moving) {
   // The steps are well above encoder noise and well below what the slowest
   // goal motion covers in a stall period.
   const double position = (tool.translation() - goal_.translation()).norm();
   const double rotation = rotation_distance(tool.rotation(), goal_.rotation());
-  bool progress = false;
+  bool progress = joints_moving;
   if (position < best_position_ - progress_.position_step) {  // always true against the initial infinity
     best_position_ = position;
     progress = true;

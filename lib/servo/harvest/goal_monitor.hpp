@@ -33,8 +33,9 @@ class GoalMonitor {
   const Eigen::Isometry3d& goal() const { return goal_; }
   int64_t id() const { return id_; }
   bool reached(const Eigen::Isometry3d& tool) const { return pose_reached(tool, goal_, tol_); }
-  // Records progress toward the goal and says whether there has been none for stall_s.
-  bool stalled(const Eigen::Isometry3d& tool, rt::Micros now);
+  // Records progress toward the goal and says whether there has been none for stall_s. `joints_moving`: the arm
+  // is moving although the tool may not come nearer (its self-motion on a joint-space way): progress too.
+  bool stalled(const Eigen::Isometry3d& tool, rt::Micros now, bool joints_moving = false);
   // Time that does not count (a pause).
   void shift(rt::Micros by) { progress_at_ += by; }
 

@@ -47,6 +47,18 @@ TEST(GoalMonitor, StallsAfterTheStallTimeWithoutAStepTowardTheGoal) {
   EXPECT_TRUE(g.stalled(at(0.0975), s(14.03)));
 }
 
+// The arm's joints turning with the tool put (a joint-space way home swinging the elbow about it) is progress;
+// once they rest, the stall time runs from the last such sample.
+TEST(GoalMonitor, JointsMovingWithTheToolPutIsProgress) {
+  GoalMonitor g({}, {0.002, 0.01, 2.0});
+  g.start(at(0.0), s(10));
+  EXPECT_FALSE(g.stalled(at(0.100), s(10)));
+  EXPECT_FALSE(g.stalled(at(0.100), s(11.5), true));
+  EXPECT_FALSE(g.stalled(at(0.100), s(13.0), true));  // 3 s without the tool nearer: the joints moving
+  EXPECT_FALSE(g.stalled(at(0.100), s(15.0)));        // at rest since 13.0: not yet
+  EXPECT_TRUE(g.stalled(at(0.100), s(15.01)));
+}
+
 TEST(GoalMonitor, TurningTowardTheGoalIsProgressToo) {
   GoalMonitor g({}, {0.002, 0.01, 2.0});
   g.start(at(0.0), 0);
