@@ -186,7 +186,6 @@ class HarvestMachine {
   Eigen::Isometry3d clear_retreat_goal(const Eigen::Isometry3d& from, double at_least) const;
   // The goal of the way out from `from` (at least `at_least` back): decides next_after_retreat_.
   Eigen::Isometry3d way_out(const Eigen::Isometry3d& from, double at_least);
-  // pull_through: DETACH's goal is the retreat's end; the pull is over once the tool has come pull_distance back.
   // A joint of the arm turns faster than goal_progress_joint_speed (newest robot state): on the way home (RETURN,
   // HOMING), whose joint-space path to the home posture may swing the elbow for seconds with the tool put, that is
   // progress too. Not elsewhere: an arm held at a joint limit while the link's null-space motion goes on must stall.
@@ -196,6 +195,7 @@ class HarvestMachine {
       if (std::abs(v) > cfg_.goal_progress_joint_speed) return true;
     return false;
   }
+  // pull_through: DETACH's goal is the retreat's end; the pull is over once the tool has come pull_distance back.
   bool pulls_through() const {
     return cfg_.pull_through && cfg_.release_at_detach && cfg_.release_while_retreating && approach_from_.has_value();
   }
