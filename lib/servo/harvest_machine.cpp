@@ -492,7 +492,7 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
       let_go_on_the_way_out(true, now, out);
     } else if (goal_.reached(tool())) {
       goal_reached(now, out);
-    } else if (goal_.stalled(tool(), now, (state_ == State::kReturn || state_ == State::kHoming) && joints_moving())) {
+    } else if (goal_.stalled(tool(), now, joints_moving_home())) {
       motion_blocked("stalled", now, out);
     } else {
       out.robot = commands_.pose_goal(stamp(), goal_.goal());  // re-sent every tick as a keep-alive, same goal_id

@@ -186,10 +186,11 @@ class HarvestMachine {
   Eigen::Isometry3d clear_retreat_goal(const Eigen::Isometry3d& from, double at_least) const;
   // The goal of the way out from `from` (at least `at_least` back): decides next_after_retreat_.
   Eigen::Isometry3d way_out(const Eigen::Isometry3d& from, double at_least);
-  // A joint of the arm turns faster than goal_progress_joint_speed (newest robot state): on the way home (RETURN,
-  // HOMING), whose joint-space path to the home posture may swing the elbow for seconds with the tool put, that is
+  // On the way home (RETURN, HOMING) a joint of the arm turns faster than goal_progress_joint_speed (newest robot
+  // state): the joint-space path to the home posture may swing the elbow for seconds with the tool put, which is
   // progress too. Not elsewhere: an arm held at a joint limit while the link's null-space motion goes on must stall.
-  bool joints_moving() const {
+  bool joints_moving_home() const {
+    if (state_ != State::kReturn && state_ != State::kHoming) return false;
     if (!robot_ || cfg_.goal_progress_joint_speed <= 0.0) return false;
     for (const double v : robot_->joint_velocity)
       if (std::abs(v) > cfg_.goal_progress_joint_speed) return true;
