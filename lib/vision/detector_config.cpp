@@ -42,6 +42,9 @@ DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
     c.learned.merge_within = n.get(learned_keys::merge_within);
     c.learned.score_visible = n.get(learned_keys::score_visible);
     c.learned.rescale_above = n.get(learned_keys::rescale_above);
+    c.learned.finer_above = n.get(learned_keys::finer_above);
+    c.learned.finer_below = n.get(learned_keys::finer_below);
+    c.learned.finer_threshold = n.get(learned_keys::finer_threshold);
     // Load it now: a bad file is an error at start (and for --check-config), not at the first frame.
     try {
       LearnedDetector check(c.learned);
@@ -87,12 +90,13 @@ config::Section DetectorConfig::schema(const std::string& path, const std::strin
   namespace k = detector_keys;
   namespace t = threshold_keys;
   namespace l = learned_keys;
-  return config::section(
-      path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible, l::rescale_above,
-      t::cr_min, t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr,
-      k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes, k::split_touching, k::split_min_radius_px,
-      k::split_min_peak_ratio, k::peel_to_circle, k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min,
-      k::reject_shapes, k::min_roundness, k::min_solidity, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
+  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within,
+                         l::score_visible, l::rescale_above, l::finer_above, l::finer_below, l::finer_threshold,
+                         t::cr_min, t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px,
+                         k::fruit_diameter_m, k::kr, k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes,
+                         k::split_touching, k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle,
+                         k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min, k::reject_shapes, k::min_roundness,
+                         k::min_solidity, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
 }
 
 }  // namespace harvest::vision

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -36,14 +38,15 @@ LearnedDetector::LearnedDetector(const LearnedConfig& config) : config_(config) 
   const auto& file = config_.model;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) throw model_error(file, "no such file");
+  {
+    std::ifstream in(file, std::ios::binary);
+    model_bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
   try {
-    net_ = cv::dnn::readNetFromONNX(file.string());
+    net_for(64);
   } catch (const cv::Exception& e) {
     throw model_error(file, std::string("not a model OpenCV can load (") + e.err + ")");
   }
-  if (net_.empty()) throw model_error(file, "not a model OpenCV can load (empty network)");
-  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
   // One thread: the same sums in the same order every run, so a replayed log
   // gives byte-identical detections (and one core is what a camera gets).
   cv::setNumThreads(1);
@@ -64,11 +67,24 @@ LearnedDetector::LearnedDetector(const LearnedConfig& config) : config_(config) 
   }
 }
 
+cv::dnn::Net& LearnedDetector::net_for(int width) {
+  // One network per input width: OpenCV re-allocates a network's layers whenever the input shape changes, which
+  // cost more than a pass at twice input_width itself when the passes alternate (87 against 50 ms on 1280x960).
+  auto it = nets_.find(width);
+  if (it != nets_.end()) return it->second;
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(model_bytes_.data(), model_bytes_.size());
+  if (net.empty()) throw model_error(config_.model, "not a model OpenCV can load (empty network)");
+  net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  return nets_.emplace(width, std::move(net)).first->second;
+}
+
 cv::Mat LearnedDetector::forward(const cv::Mat3b& bgr) {
   // RGB scaled to [-1, 1], as tools/train_detector.py normalise().
   const cv::Mat blob = cv::dnn::blobFromImage(bgr, 1.0 / 127.5, cv::Size(), cv::Scalar(127.5, 127.5, 127.5), true);
-  net_.setInput(blob);
-  return net_.forward().clone();
+  cv::dnn::Net& net = net_for(bgr.cols);
+  net.setInput(blob);
+  return net.forward().clone();
 }
 
 std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
@@ -145,12 +161,38 @@ std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
 
 std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
   std::vector<Fruit> fruits = detect_at(bgr, config_.input_width);
+  if (bgr.cols <= 0) return fruits;
+  measure_large_again(bgr, fruits);
+  add_small_from_finer(bgr, fruits);
+  return fruits;
+}
+
+void LearnedDetector::add_small_from_finer(const cv::Mat3b& bgr, std::vector<Fruit>& fruits) {
+  // A frame far wider than input_width (a whole tree, a canopy from above) shows far fruit a few pixels wide at
+  // that scale: the frame at twice the width (and twice again while it is still that much wider) finds them.
+  // Only what the first pass could not: small at input_width, and not a fruit found already (merge_within, as in
+  // decode).
+  if (config_.finer_above <= 0.0) return;
+  const double to_first = static_cast<double>(config_.input_width) / bgr.cols;
+  for (int coarse = config_.input_width; bgr.cols > config_.finer_above * coarse; coarse *= 2) {
+    for (const Fruit& f : detect_at(bgr, 2 * coarse)) {
+      if (f.diameter_px * to_first >= config_.finer_below || f.confidence < config_.finer_threshold) continue;
+      const bool found = std::any_of(fruits.begin(), fruits.end(), [&](const Fruit& k) {
+        const double reach = std::max(config_.merge_within, 1e-9) * 0.5 * std::max(k.diameter_px, f.diameter_px);
+        return std::hypot(f.u - k.u, f.v - k.v) < reach;
+      });
+      if (!found) fruits.push_back(f);
+    }
+  }
+}
+
+void LearnedDetector::measure_large_again(const cv::Mat3b& bgr, std::vector<Fruit>& fruits) {
   // A fruit beyond the sizes the network learnt reads small (near the camera
   // in the hand: depth from size up to 17 % too far): measured again on the
   // frame at half the scale, and half again while still too large, its
   // diameter is the coarser pass's. Centre, confidence and visible fraction
   // stay the finer pass's.
-  if (config_.rescale_above <= 0.0 || bgr.cols <= 0) return fruits;
+  if (config_.rescale_above <= 0.0) return;
   for (int width = config_.input_width / 2; width >= 8 * kStride; width /= 2) {
     // Too large at the scale the last pass ran at (twice this one).
     const double limit = config_.rescale_above * bgr.cols / (2.0 * width);
@@ -173,7 +215,6 @@ std::vector<Fruit> LearnedDetector::detect(const cv::Mat3b& bgr) {
       if (best) set_size(*f, best->diameter_x_px, best->diameter_y_px);
     }
   }
-  return fruits;
 }
 
 std::vector<Fruit> LearnedDetector::detect_at(const cv::Mat3b& bgr, int width) {

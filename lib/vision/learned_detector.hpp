@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 #include <string>
@@ -46,6 +47,21 @@ inline constexpr Key<double> rescale_above{
     "rescale_above", 110.0, {0.0, 4096.0}, "px",
     "mode learned: a fruit wider than this at the network's input scale is measured again on the frame at half that "
     "scale, where it lies within the sizes the network learnt (0: never)"};
+// A frame much wider than input_width (a photo of a whole tree or canopy) shows a far-off fruit a few pixels wide
+// at that scale, below what the network finds (training fruit are 10-365 px there).
+inline constexpr Key<double> finer_above{
+    "finer_above", 2.0, {0.0, 64.0}, "",
+    "mode learned: a frame more than this many times input_width wide is also run at twice input_width (and twice "
+    "again while the frame is this many times wider), for fruit too small for the coarser pass (0: never; camera "
+    "frames up to twice input_width never are)"};
+inline constexpr Key<double> finer_below{
+    "finer_below", 24.0, {0.0, 4096.0}, "px",
+    "mode learned: ... a fruit of a finer pass counts if it is narrower than this at input_width's scale (too small "
+    "for the first pass) and not found already (within merge_within)"};
+inline constexpr Key<double> finer_threshold{
+    "finer_threshold", 0.6, {0.01, 1.0}, "",
+    "mode learned: ... and its peak is at least this (the finer scales show the network textures it never learnt: "
+    "more false fruit than at input_width)"};
 }  // namespace learned_keys
 
 struct LearnedConfig {
@@ -55,6 +71,9 @@ struct LearnedConfig {
   double merge_within = learned_keys::merge_within.fallback;
   bool score_visible = learned_keys::score_visible.fallback;
   double rescale_above = learned_keys::rescale_above.fallback;
+  double finer_above = learned_keys::finer_above.fallback;
+  double finer_below = learned_keys::finer_below.fallback;
+  double finer_threshold = learned_keys::finer_threshold.fallback;
 };
 
 class LearnedDetector {
@@ -82,8 +101,16 @@ class LearnedDetector {
   std::vector<Fruit> decode(const cv::Mat& maps) const;
 
  private:
+  // rescale_above: fruit too large for the network measured again at coarser scales (their diameter only).
+  void measure_large_again(const cv::Mat3b& bgr, std::vector<Fruit>& fruits);
+  // finer_above / finer_below: fruit too small for the network at input_width, from finer passes.
+  void add_small_from_finer(const cv::Mat3b& bgr, std::vector<Fruit>& fruits);
+
+  cv::dnn::Net& net_for(int width);  // the network for inputs this wide (loaded from model_bytes_ once)
+
   LearnedConfig config_;
-  cv::dnn::Net net_;
+  std::vector<char> model_bytes_;       // the ONNX file, read once at start
+  std::map<int, cv::dnn::Net> nets_;  // by input width
 };
 
 }  // namespace harvest::vision

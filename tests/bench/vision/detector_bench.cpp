@@ -341,6 +341,18 @@ void BM_LearnedMode640x480(benchmark::State& state) {
 }
 BENCHMARK(BM_LearnedMode640x480)->Arg(320)->Arg(640)->Unit(benchmark::kMicrosecond);
 
+// A wide photo (the 640x480 frame scaled to 1280x960): input_width 320, with the finer pass at 640 (Arg 1,
+// finer_above 2, the default) and without (Arg 0). Camera frames up to 640 wide never run it.
+void BM_LearnedModeWideFrame(benchmark::State& state) {
+  cv::Mat3b img;
+  cv::resize(make_frame(), img, cv::Size(1280, 960), 0, 0, cv::INTER_LINEAR);
+  DetectorConfig cfg = learned(320);
+  if (state.range(0) == 0) cfg.learned.finer_above = 0;
+  FruitDetector det(cfg, 2 * 833.57, 2 * 767.02);
+  for (auto _ : state) benchmark::DoNotOptimize(det.detect(img).fruits.size());
+}
+BENCHMARK(BM_LearnedModeWideFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();

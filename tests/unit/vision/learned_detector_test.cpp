@@ -160,6 +160,45 @@ TEST(LearnedDetector, AFruitBeyondTheLearntSizesIsMeasuredAtACoarserScale) {
   }
 }
 
+// A photo of a whole tree from afar: 2560 px wide, its fruit 120 px there, 15 px once the frame is scaled to 320
+// (beneath what the network finds). The finer passes (640 and 1280 wide: 30 and 60 px) find them; a frame 640 wide
+// (a camera's) has none. Off (finer_above 0), with finer_below under their size at 320 or finer_threshold over
+// their peaks, only the first pass counts.
+TEST(LearnedDetector, SmallFruitOfAWideFrameAreFoundByFinerPasses) {
+  std::vector<Truth> truth;
+  for (int i = 0; i < 4; ++i) truth.push_back({400.0 + 550 * i, 500.0 + 600 * (i % 2), 120});
+  const cv::Mat3b wide = orchard_frame(truth, 2560, 1920);
+  LearnedConfig off = model(kModel);
+  off.finer_above = 0;
+  const auto near_truth = [&](const std::vector<Fruit>& fruits) {
+    int n = 0;
+    for (const Truth& t : truth)
+      n += std::any_of(fruits.begin(), fruits.end(), [&](const Fruit& f) {
+        return std::hypot(f.u - t.u, f.v - t.v) < 0.3 * t.d && std::abs(f.diameter_px - t.d) < 0.4 * t.d;
+      });
+    return n;
+  };
+  const std::vector<Fruit> single = LearnedDetector(off).detect(wide);
+  const std::vector<Fruit> finer = LearnedDetector(model(kModel)).detect(wide);
+  EXPECT_EQ(near_truth(single), 0);
+  EXPECT_EQ(near_truth(finer), 4);
+  // Nothing else added by the finer passes on this frame (leaf noise).
+  EXPECT_LE(finer.size(), single.size() + truth.size());
+  // finer_below 14 px (at 320): the 15 px fruit are not small enough to be the finer passes' to add.
+  LearnedConfig strict = model(kModel);
+  strict.finer_below = 14;
+  EXPECT_EQ(near_truth(LearnedDetector(strict).detect(wide)), 0);
+  // Nor with finer_threshold above their peaks.
+  LearnedConfig sure = model(kModel);
+  sure.finer_threshold = 0.99;
+  EXPECT_EQ(near_truth(LearnedDetector(sure).detect(wide)), 0);
+  // A camera frame (640 wide, twice input_width) runs once: the same detections with the passes on or off.
+  const cv::Mat3b frame = orchard_frame({{200, 200, 140}, {450, 300, 110}});
+  const std::vector<Fruit> a = LearnedDetector(model(kModel)).detect(frame), b = LearnedDetector(off).detect(frame);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].u, b[i].u);
+}
+
 // Raw maps (1x3x16x16) by hand: heatmap logits 0 (p 0.5) at the given cells,
 // -10 elsewhere, log diameter log(d / 32) (a peak's own if given), mask 0.
 cv::Mat hand_maps(const std::vector<std::pair<int, int>>& peaks, const std::vector<float>& logits, double d,
