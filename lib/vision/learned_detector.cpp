@@ -69,7 +69,7 @@ LearnedDetector::LearnedDetector(const LearnedConfig& config) : config_(config) 
 
 cv::dnn::Net& LearnedDetector::net_for(int width) {
   // One network per input width: OpenCV re-allocates a network's layers whenever the input shape changes, which
-  // cost more than a pass at twice input_width itself when the passes alternate (87 against 50 ms on 1280x960).
+  // cost more than a pass at twice input_width itself when the passes alternate (87 against 58 ms on 1280x960).
   auto it = nets_.find(width);
   if (it != nets_.end()) return it->second;
   cv::dnn::Net net = cv::dnn::readNetFromONNX(model_bytes_.data(), model_bytes_.size());
@@ -171,14 +171,15 @@ void LearnedDetector::add_small_from_finer(const cv::Mat3b& bgr, std::vector<Fru
   // A frame far wider than input_width (a whole tree, a canopy from above) shows far fruit a few pixels wide at
   // that scale: the frame at twice the width (and twice again while it is still that much wider) finds them.
   // Only what the first pass could not: small at input_width, and not a fruit found already (merge_within, as in
-  // decode).
+  // decode, its default when that merge is off). Never beyond twice the frame's own width (finer_above under 1).
   if (config_.finer_above <= 0.0) return;
   const double to_first = static_cast<double>(config_.input_width) / bgr.cols;
-  for (int coarse = config_.input_width; bgr.cols > config_.finer_above * coarse; coarse *= 2) {
+  const double same = config_.merge_within > 0.0 ? config_.merge_within : learned_keys::merge_within.fallback;
+  for (int coarse = config_.input_width; bgr.cols > config_.finer_above * coarse && coarse < bgr.cols; coarse *= 2) {
     for (const Fruit& f : detect_at(bgr, 2 * coarse)) {
       if (f.diameter_px * to_first >= config_.finer_below || f.confidence < config_.finer_threshold) continue;
       const bool found = std::any_of(fruits.begin(), fruits.end(), [&](const Fruit& k) {
-        const double reach = std::max(config_.merge_within, 1e-9) * 0.5 * std::max(k.diameter_px, f.diameter_px);
+        const double reach = same * 0.5 * std::max(k.diameter_px, f.diameter_px);
         return std::hypot(f.u - k.u, f.v - k.v) < reach;
       });
       if (!found) fruits.push_back(f);
