@@ -22,6 +22,11 @@ float at(const cv::Mat& maps, int c, int y, int x) { return maps.ptr<float>(0, c
 
 double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
+// Two detections of one fruit: centres nearer than `within` of the larger of the two radii.
+bool same_fruit(const Fruit& a, const Fruit& b, double within) {
+  return std::hypot(a.u - b.u, a.v - b.v) < within * 0.5 * std::max(a.diameter_px, b.diameter_px);
+}
+
 // A fruit's size in the frame's pixels, from its x and y diameters: the mean diameter, the disc's area, the box.
 void set_size(Fruit& f, double diameter_x, double diameter_y) {
   f.diameter_x_px = diameter_x;
@@ -148,10 +153,8 @@ std::vector<Fruit> LearnedDetector::decode(const cv::Mat& maps) const {
   if (config_.merge_within > 0) {
     std::vector<Fruit> kept;
     for (const Fruit& f : out) {
-      const bool same = std::any_of(kept.begin(), kept.end(), [&](const Fruit& k) {
-        const double reach = config_.merge_within * 0.5 * std::max(k.diameter_px, f.diameter_px);
-        return std::hypot(f.u - k.u, f.v - k.v) < reach;
-      });
+      const bool same =
+          std::any_of(kept.begin(), kept.end(), [&](const Fruit& k) { return same_fruit(k, f, config_.merge_within); });
       if (!same) kept.push_back(f);
     }
     out = std::move(kept);
@@ -178,10 +181,8 @@ void LearnedDetector::add_small_from_finer(const cv::Mat3b& bgr, std::vector<Fru
   for (int coarse = config_.input_width; bgr.cols > config_.finer_above * coarse && coarse < bgr.cols; coarse *= 2) {
     for (const Fruit& f : detect_at(bgr, 2 * coarse)) {
       if (f.diameter_px * to_first >= config_.finer_below || f.confidence < config_.finer_threshold) continue;
-      const bool found = std::any_of(fruits.begin(), fruits.end(), [&](const Fruit& k) {
-        const double reach = same * 0.5 * std::max(k.diameter_px, f.diameter_px);
-        return std::hypot(f.u - k.u, f.v - k.v) < reach;
-      });
+      const bool found =
+          std::any_of(fruits.begin(), fruits.end(), [&](const Fruit& k) { return same_fruit(k, f, same); });
       if (!found) fruits.push_back(f);
     }
   }
