@@ -1,7 +1,5 @@
 #include "servo/harvest_machine.hpp"
 
-#include <fmt/format.h>
-
 #include <cmath>
 
 #include "arm/fault_flags.hpp"
@@ -12,29 +10,6 @@
 #include "servo/harvest/status.hpp"
 
 namespace harvest::servo {
-namespace {
-
-// Braking toward the standoff the arm nears it ever more slowly: within this it is there [m].
-constexpr double kAtStandoff = 0.01;
-
-// Where an estimate's depth comes from, in the IR-guidance note (a switch: a new Depth must be named here).
-const char* depth_source(Fruit::Depth depth) {
-  switch (depth) {
-    case Fruit::Depth::kSize:
-      return "depth from size";
-    case Fruit::Depth::kConfirmed:
-      return "depth from size, confirmed by the rays' crossing";
-    case Fruit::Depth::kCrossing:
-      return "depth from the rays' crossing, the size disagreed";
-    case Fruit::Depth::kNear:
-      return "depth from size, near: the rays' crossing disagreed, set aside";
-    case Fruit::Depth::kFixed:
-      return "the fixed camera's depth along the hand's ray: its size put it outside";
-  }
-  return "depth from size";
-}
-
-}  // namespace
 
 HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
     : cfg_(std::move(config)),
@@ -46,8 +21,7 @@ HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrat
       hand_(cfg_),
       ir_(cfg_),
       orientation_law_({cfg_.gains.kp_orient, cfg_.gains.kd_orient, cfg_.gains.derivative_filter}),
-      sway_(cfg_.sway),
-      tree_(cfg_.sway) {}
+      wind_(cfg_.sway) {}
 
 // ---------------------------------------------------------------- transitions
 
@@ -267,10 +241,7 @@ bool HarvestMachine::take_next(const Selection& s, MachineOutput& out) {
   approach_->reset();
   approach_note_.clear();
   hand_.forget_fruit();
-  sway_.reset();
-  hold_since_.reset();
-  held_ = false;
-  still_after_all_ = false;
+  wind_.new_fruit();
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
   return true;
@@ -322,7 +293,7 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     out.status_changed = !fixed_;
     fixed_ = msg;
     fixed_rx_ = now;
-    tree_.add(msg);
+    wind_.on_fixed(msg, now);
   } else if (current_) {
     hand_.on_hand_targets(msg, *current_, image_camera(msg.header.utime), now);
   }
@@ -653,19 +624,13 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
     case IrStep::Action::kClose: {
       // A swaying fruit: closed on when it is predicted on the gripper axis as the jaws meet; held still until then.
       if (!close_wait_since_) close_wait_since_ = now;
-      const SwayFit fit = tree_still(now) ? SwayFit{} : sway_.fit();  // still: at once, as without wind
-      const double waited = rt::to_seconds(now - *close_wait_since_);
-      const CloseDecision d = close_decision(fit, t, rt::to_seconds(now), waited, cfg_.tick_period_s, cfg_.sway);
-      if (!d.close) {
+      const WindWatch::Close c = wind_.close(now, t, rt::to_seconds(now - *close_wait_since_), cfg_.tick_period_s);
+      if (!c.decision.close) {
         out.robot = twist(Twist{});
         break;
       }
-      if (fit.swaying) {
-        note_ = fmt::format(
-            "swaying {:.0f} mm at {:.2f} Hz{} (fit {:.2f}): closed after {:.2f} s, predicted {:.0f} mm "
-            "off the axis",
-            fit.amplitude * 1e3, fit.frequency_hz, fit.learned_frequency ? " (learned)" : "", fit.confidence, waited,
-            d.offset * 1e3);
+      if (c.note) {
+        note_ = *c.note;
         out.status_changed = true;
       }
       // Thesis HarvestStep5: close the gripper on the fruit.
@@ -684,101 +649,24 @@ void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
     case IrStep::Action::kAdvance:
       out.robot = twist(approach_
                             ->update({now, t, camera(), current_->estimate, hand_pixel(now), s.forward_speed,
-                                      tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window})
+                                      wind_.tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window})
                             .twist);
       break;
   }
 }
 
 std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out) {
-  // The centring follows the fruit's mean over gains.sway_window, but IR guidance takes about a second, less than
-  // a period of a slow sway: the mean of part of a swing lies up to 3/4 of its amplitude off the sway's middle, and
-  // the jaws close beside a fruit that swings on (docs/servo-controller.md, "A fruit in the wind"). A fruit seen to
-  // sway is watched from the standoff, the arm at rest and the fruit whole in the image, until the mean is over
-  // whole periods; then the approach goes in on it.
-  const ServoConfig::Sway& p = cfg_.sway;
-  if (held_ || p.hold_standoff <= 0.0 || p.hold_time <= 0.0) return std::nullopt;
-  if (!hold_since_) {
-    // Not a fruit cut by a leaf (its depth from the rays' crossing or the fixed camera, the hand's size
-    // disagreed): the standoff would be measured from a doubtful depth, and the hand camera's views of it are pieces.
-    const double spread = sway_.spread();
-    if (spread <= p.hold_spread || current_->depth == Fruit::Depth::kCrossing ||
-        current_->depth == Fruit::Depth::kFixed)
-      return std::nullopt;
-    if (p.tree_still_skips_hold && tree_still(now)) {
-      // The fixed camera, standing still, sees the tree still: the spread is the moving hand camera's error
-      // (depth, pose timing, pieces of the fruit), not a sway.
-      held_ = true;
-      const TreeSwayGauge::Reading& tree = tree_.reading();
-      note_ = fmt::format(
-          "the tree is still ({:.1f} mm rms over {} fruit in the fixed camera): {:.0f} mm rms across "
-          "the axis not held for",
-          tree.rms * 1e3, tree.fruit, spread * 1e3);
-      out.status_changed = true;
-      return std::nullopt;
-    }
-    const double ahead = ahead_along_axis(tool, current_->estimate);
-    if (ahead > p.hold_standoff + kAtStandoff) return p.hold_standoff;  // on the way there
-    if (!hand_.whole()) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on
-      held_ = true;
-      return std::nullopt;
-    }
-    hold_since_ = now;
-    note_ = fmt::format("swaying ({:.0f} mm rms across the axis): held {:.0f} mm short of it for {:.1f} s",
-                        spread * 1e3, ahead * 1e3, p.hold_time);
+  const WindWatch::Hold h = wind_.hold(now, ahead_along_axis(tool, current_->estimate), current_->depth, hand_.whole());
+  if (h.note) {
+    note_ = *h.note;
     out.status_changed = true;
   }
-  const rt::Micros held_for = now - *hold_since_;
-  if (p.hold_check > 0.0 && held_for >= rt::from_seconds(p.hold_check) && held_for < rt::from_seconds(p.hold_time)) {
-    // Early word from the views taken since the hold began, the arm at rest: a still fruit that looked to sway
-    // (seen while the arm moved and turned, its spread is the depth error's sideways share) spreads by the pixel
-    // noise alone, a swaying one by its sway. On ten still short trees 10 of 37 IR approaches held the whole 2.5 s;
-    // their held spreads were 0.1-1.0 mm, swaying fruit's in tree_wind 4.4-13.6 mm, but once 0.4 mm: a sway along
-    // the gripper axis hardly spreads across it (docs/servo-controller.md).
-    const auto spread = sway_.spread_since(rt::to_seconds(*hold_since_));
-    if (sway_fed_ <= *hold_since_) {
-      note_ = fmt::format("not seen whole in {:.1f} s held: going in", rt::to_seconds(held_for));
-    } else if (spread && *spread < p.still_spread) {
-      still_after_all_ = true;
-      note_ = fmt::format("still after all ({:.1f} mm rms over {:.1f} s held): going in", *spread * 1e3,
-                          rt::to_seconds(held_for));
-    } else if (tree_still(now)) {
-      // The fixed camera, standing still, sees the tree still: the held views spread by the hand camera's noise
-      // and pieces of the fruit, not by a sway. Going in without any hold was faster but less accurate: the hold
-      // is also where the arm, at rest, centres on whole views (ten still trees: final error 10.0 mm without it,
-      // 8.5 mm with it; docs/demo.md).
-      still_after_all_ = true;
-      const TreeSwayGauge::Reading& tree = tree_.reading();
-      note_ = fmt::format(
-          "the tree is still ({:.1f} mm rms over {} fruit in the fixed camera; {:.1f} mm held): "
-          "going in",
-          tree.rms * 1e3, tree.fruit, spread.value_or(0.0) * 1e3);
-    } else {
-      return p.hold_standoff;
-    }
-    out.status_changed = true;
-    held_ = true;
-    return std::nullopt;
-  }
-  if (held_for < rt::from_seconds(p.hold_time)) return p.hold_standoff;
-  held_ = true;
-  const auto spread = sway_.spread_since(rt::to_seconds(*hold_since_));
-  note_ = spread ? fmt::format("held {:.1f} s ({:.1f} mm rms while held): going in", rt::to_seconds(held_for),
-                               *spread * 1e3)
-                 : fmt::format("held {:.1f} s: going in", rt::to_seconds(held_for));
-  out.status_changed = true;
-  return std::nullopt;
-}
-
-bool HarvestMachine::tree_still(rt::Micros now) const {
-  return tree_.reading().verdict == TreeSwayGauge::Verdict::kStill &&
-         now - fixed_rx_ <= rt::from_seconds(cfg_.sway.tree_window);  // a verdict no older than its window
+  return h.standoff;
 }
 
 void HarvestMachine::feed_sway(rt::Micros now) {
   const auto pixel = hand_pixel(now);
-  if (!pixel || pixel->utime <= sway_fed_ || !robot_ || !hand_.whole()) return;
-  sway_fed_ = pixel->utime;
+  if (!pixel || !wind_.unseen(pixel->utime) || !robot_ || !hand_.whole()) return;
   // Whole fruit only: cut by the image border or filling the image, the centroid is not the fruit's centre.
   // Under IR guidance only: the camera is near, the fruit near the image centre, and the arm no longer turns or
   // sweeps sideways (earlier views, taken moving fast, showed a still fruit of experiment I swaying 21 mm at 0.28 Hz).
@@ -786,7 +674,7 @@ void HarvestMachine::feed_sway(rt::Micros now) {
   // size errs by ~10 %, centimetres that would drown the sway. The axis keeps its direction from ORIENT on.
   const Eigen::Vector3d seen = seen_in_base(cfg_.hand_camera, camera(), *pixel, current_->estimate);
   const Eigen::Vector3d axis = tool().rotation().col(2);
-  sway_.add(rt::to_seconds(pixel->utime), seen - axis.dot(seen) * axis);
+  wind_.add(pixel->utime, seen - axis.dot(seen) * axis);
 }
 
 void HarvestMachine::grasp_step(MachineOutput& out) {

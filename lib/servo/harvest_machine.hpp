@@ -14,7 +14,7 @@
 // state table (states.hpp), which fruit next (selector, fruit_ledger), where
 // to aim (aiming), watching a pose goal (goal_monitor), following the fruit
 // in the hand image (hand_tracker), the last centimetres (ir_guidance), when
-// to close on a swaying fruit (sway) and the command messages (commands).
+// to close on a swaying fruit (wind: sway, tree_sway) and the command messages (commands).
 #pragma once
 
 #include <cmath>
@@ -49,8 +49,7 @@
 #include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
-#include "servo/harvest/sway.hpp"
-#include "servo/harvest/tree_sway.hpp"
+#include "servo/harvest/wind.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
@@ -79,8 +78,7 @@ class HarvestMachine {
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
     // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
     // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
-    ir_.on_reading(msg, now,
-                   state_ == State::kIrApproach && (still_after_all_ || sway_.spread() <= cfg_.sway.hold_spread));
+    ir_.on_reading(msg, now, state_ == State::kIrApproach && wind_.fold_back_allowed());
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
@@ -152,10 +150,8 @@ class HarvestMachine {
   void grasp_step(MachineOutput& out);
   // IR_APPROACH: a new hand-camera view of the current fruit goes to the sway estimator.
   void feed_sway(rt::Micros now);
-  // Whether IR guidance stands off the current fruit now, and how far (sway.hold_*).
+  // Whether IR guidance stands off the current fruit now, and how far (WindWatch::hold; its note to the status).
   std::optional<double> sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out);
-  // The fixed camera's gauge says the tree is still, from TARGETS no older than its window.
-  bool tree_still(rt::Micros now) const;
 
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
@@ -230,13 +226,8 @@ class HarvestMachine {
   HandTracker hand_;
   IrGuidance ir_;
   OrientationLaw orientation_law_;
-  SwayEstimator sway_;
-  TreeSwayGauge tree_;                          // whether the tree sways, from the fixed camera
-  rt::Micros sway_fed_ = 0;                     // the newest hand image the estimator has (its utime)
+  WindWatch wind_;                              // the current fruit's sway and the tree's, the hold, the timed close
   std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
-  std::optional<rt::Micros> hold_since_;        // standing off the swaying current fruit since ...
-  bool held_ = false;                           // ... and done: it has been watched (once per fruit)
-  bool still_after_all_ = false;                // ... and seen still while held (sway.hold_check): no swaying fruit
 
   State state_ = State::kIdle;
   bool paused_ = false;

@@ -43,4 +43,20 @@ harvest_status_t status_message(const StatusInputs& in, const FruitLedger& ledge
   return s;
 }
 
+const char* depth_source(Fruit::Depth depth) {
+  switch (depth) {  // no default: a new Depth must be named here
+    case Fruit::Depth::kSize:
+      return "depth from size";
+    case Fruit::Depth::kConfirmed:
+      return "depth from size, confirmed by the rays' crossing";
+    case Fruit::Depth::kCrossing:
+      return "depth from the rays' crossing, the size disagreed";
+    case Fruit::Depth::kNear:
+      return "depth from size, near: the rays' crossing disagreed, set aside";
+    case Fruit::Depth::kFixed:
+      return "the fixed camera's depth along the hand's ray: its size put it outside";
+  }
+  return "depth from size";
+}
+
 }  // namespace harvest::servo

@@ -8,6 +8,7 @@
 #include "harvest/harvest_status_t.hpp"
 #include "harvest/robot_state_t.hpp"
 #include "harvest/targets_t.hpp"
+#include "servo/harvest/fruit.hpp"
 #include "servo/harvest/fruit_ledger.hpp"
 #include "servo/harvest/states.hpp"
 
@@ -31,5 +32,8 @@ std::string summary_line(const StatusInputs& in, const Tally& tally);
 constexpr std::size_t kMaxStatusOutcomes = 50;
 harvest_status_t status_message(const StatusInputs& in, const FruitLedger& ledger, const targets_t* fixed,
                                 const robot_state_t* robot);
+
+// Where an estimate's depth comes from, in the IR-guidance note ("IR guidance from 452 mm (depth from size)").
+const char* depth_source(Fruit::Depth depth);
 
 }  // namespace harvest::servo

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+#include <string>
+
 namespace harvest::servo {
 namespace {
 
@@ -45,6 +48,15 @@ TEST(Status, MessageCountsTheFruitLeftAndCarriesOnlyTheNewestOutcomes) {
   EXPECT_EQ(none.remaining, 0);
   EXPECT_EQ(none.header.source_seq, -1);
   EXPECT_EQ(none.state, "IDLE");
+}
+
+// Every depth source has its own words in the IR-guidance note (tools and docs quote them).
+TEST(Status, EveryDepthSourceIsNamedApart) {
+  std::set<std::string> seen;
+  for (const auto d : {Fruit::Depth::kSize, Fruit::Depth::kConfirmed, Fruit::Depth::kCrossing, Fruit::Depth::kNear,
+                       Fruit::Depth::kFixed})
+    EXPECT_TRUE(seen.insert(depth_source(d)).second) << depth_source(d);
+  EXPECT_STREQ(depth_source(Fruit::Depth::kConfirmed), "depth from size, confirmed by the rays' crossing");
 }
 
 }  // namespace
