@@ -21,13 +21,14 @@ HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrat
       hand_(cfg_),
       ir_(cfg_),
       orientation_law_({cfg_.gains.kp_orient, cfg_.gains.kd_orient, cfg_.gains.derivative_filter}),
-      wind_(cfg_.sway) {}
+      wind_(cfg_.sway),
+      way_(cfg_, straight()) {}
 
 // ---------------------------------------------------------------- transitions
 
 void HarvestMachine::enter(State s, rt::Micros now, MachineOutput& out) {
   if (!keeps_twist(state_, s)) commands_.ramp_from_rest();
-  if (s != State::kDetach) pull_from_.reset();
+  if (s != State::kDetach) way_.pull_alone();
   state_ = s;
   entered_at_ = now;
   close_wait_since_.reset();
@@ -74,33 +75,18 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
 
 void HarvestMachine::picked(rt::Micros now, MachineOutput& out) {
   end_fruit(fruit_outcome_t::PICKED, "", now, out);
-  head_home(approach_from_ && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
+  head_home(way_.approached() && cfg_.release_at_detach, now, out);  // after a drop pose it is out of the canopy
 }
 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
-    const Eigen::Isometry3d goal = way_out(tool(), cfg_.retreat_distance);
-    if (straight() && !next_after_retreat_) note_ = "a joint met its limit going in: home first";
+    const Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_ ? &*fixed_ : nullptr);
+    if (straight() && !way_.next_from_there()) note_ = "a joint met its limit going in: home first";
     start_goal(goal, State::kRetreat, now, out);
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
-  approach_from_.reset();
-}
-
-Eigen::Isometry3d HarvestMachine::way_out(const Eigen::Isometry3d& from, double at_least) {
-  // Out of the canopy the next fruit can be turned to straight from there (its aim from home); after a joint met
-  // its limit going in, home first: the robot link's way home resets the arm's posture.
-  next_after_retreat_ = straight() && !(cfg_.home_after_joint_limit && joint_limit_met_);
-  return next_after_retreat_ ? clear_retreat_goal(from, at_least) : retreat_goal(from, at_least);
-}
-
-Eigen::Isometry3d HarvestMachine::clear_retreat_goal(const Eigen::Isometry3d& from, double at_least) const {
-  if (cfg_.retreat_clearance <= 0.0 || !fixed_) return retreat_goal(from, at_least);
-  // Every fruit the fixed camera sees now (the one just picked is in the gripper or falling where the pull ended).
-  std::vector<Eigen::Vector3d> fruit;
-  for (const auto& t : fixed_->targets) fruit.emplace_back(t.position_base[0], t.position_base[1], t.position_base[2]);
-  return clear_retreat(from, approach_from_, at_least, cfg_.home_pose, fruit, cfg_.retreat_clearance, cfg_.palm_offset);
+  way_.approach_done();
 }
 
 void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, MachineOutput& out) {
@@ -110,8 +96,8 @@ void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, 
   release_due_ = now + rt::from_seconds(cfg_.timeouts.release);
   if (!goal_under_way) return picked(now, out);
   end_fruit(fruit_outcome_t::PICKED, "", now, out);
-  if (straight() && !next_after_retreat_) note_ = "a joint met its limit going in: home first";
-  approach_from_.reset();
+  if (straight() && !way_.next_from_there()) note_ = "a joint met its limit going in: home first";
+  way_.approach_done();
   enter(State::kRetreat, now, out);  // the same goal, the arm on its way
   out.robot = commands_.pose_goal(stamp(), goal_.goal());
 }
@@ -120,7 +106,7 @@ void HarvestMachine::pull_first(const std::string& why, rt::Micros now, MachineO
   note_ = "the way out from the grasp " + why + ": pulling first";
   out.log = note_;
   start_goal(detach_goal(tool(), cfg_.pull_distance, cfg_.twist_angle), State::kDetach, now, out);
-  pull_from_.reset();  // the pull alone, then RETREAT as without pull_through
+  way_.pull_alone();  // the pull alone, then RETREAT as without pull_through
 }
 
 void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOutput& out) {
@@ -141,7 +127,7 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       // limit just before the viewpoint) with the fruit well inside the image acquires it from there.
       if (in_hand_view(cfg_.hand_camera, camera(), current_->estimate, cfg_.in_view_margin)) {
         note_ = fruit + ": the turn " + why + " short of its goal, the fruit in view";
-        approach_from_ = tool().translation();
+        way_.approach_began(tool().translation());
         enter(State::kAcquire, now, out);
       } else if (turning_from_retreat_) {
         // The way from the end of the retreat is not the way from home: try the turn from home before any verdict.
@@ -170,7 +156,7 @@ void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, Mach
       start_goal(cfg_.home_pose, State::kReturn, now, out);
       break;
     case State::kDetach:
-      if (pull_from_) return pull_first(why, now, out);
+      if (way_.pulling_through()) return pull_first(why, now, out);
       // The pull got part of the way: the drop's other path finishes it (the gripper says if still held).
       note_ = "detach " + why + ", going on to the drop";
       start_goal(cfg_.drop_pose, State::kDrop, now, out);
@@ -218,7 +204,7 @@ void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
     enter(State::kSelect, now, out);
   } else if ((tool().translation() - cfg_.home_pose.translation()).norm() > cfg_.retreat_distance) {
     start_goal(back_along_axis(tool(), std::nullopt, cfg_.retreat_distance), State::kRetreat, now, out);
-    next_after_retreat_ = false;  // from an unknown place: home first
+    way_.home_first();  // from an unknown place: home first
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
@@ -314,7 +300,7 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
       now - entered_at_ > rt::from_seconds(cfg_.tick_period_s))
     motion_blocked("refused by the robot link", now, out);
   const bool going_in = state_ == State::kApproach || state_ == State::kIrApproach || state_ == State::kBackoff;
-  if (going_in && (msg.fault_flags & arm::kFlagJointLimit) != 0) joint_limit_met_ = true;
+  if (going_in && (msg.fault_flags & arm::kFlagJointLimit) != 0) way_.joint_limit_met();
   return out;
 }
 
@@ -328,14 +314,15 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
     return out;
   }
   const bool holding = msg.state == gripper_state_t::STATE_HOLDING;
-  if (state_ == State::kGrasp && holding && pulls_through()) {
+  if (state_ == State::kGrasp && holding && way_.pulls_through()) {
     // One motion from the grasp to the retreat's end (its goal as if from where the pull would end): no stop at
     // the end of the pull, whose braking and new start cost about 0.4 s a fruit; the fruit is let go on the way.
     const Eigen::Isometry3d grasped = tool();
-    Eigen::Isometry3d goal = way_out(grasped, cfg_.pull_distance + cfg_.retreat_distance);
+    Eigen::Isometry3d goal =
+        way_.goal(grasped, cfg_.pull_distance + cfg_.retreat_distance, fixed_ ? &*fixed_ : nullptr);
     goal.linear() = detach_goal(grasped, 0.0, cfg_.twist_angle).linear();
     start_goal(goal, State::kDetach, now, out);
-    pull_from_ = grasped;
+    way_.pull_from(grasped);
   } else if (state_ == State::kGrasp && holding) {
     start_goal(detach_goal(tool(), cfg_.pull_distance, cfg_.twist_angle), State::kDetach, now, out);
   } else if (state_ == State::kGrasp && msg.state == gripper_state_t::STATE_CLOSED) {
@@ -459,7 +446,7 @@ MachineOutput HarvestMachine::tick(rt::Micros now) {
 
 void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
   if (spec(state_).motion == Motion::kPoseGoal) {
-    if (state_ == State::kDetach && pulled_off(tool())) {
+    if (state_ == State::kDetach && way_.pulled_off(tool())) {
       let_go_on_the_way_out(true, now, out);
     } else if (goal_.reached(tool())) {
       goal_reached(now, out);
@@ -506,7 +493,7 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
   switch (state_) {
     case State::kOrient:
     case State::kOrientPd:
-      approach_from_ = tool().translation();
+      way_.approach_began(tool().translation());
       enter(State::kAcquire, now, out);
       break;
     case State::kBackoff:
@@ -528,14 +515,14 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
       release(now, out);
       break;
     case State::kRetreat:
-      if (next_after_retreat_) {
+      if (way_.next_from_there()) {
         next_from_here(entered_at_, now, out);
       } else {
         start_goal(cfg_.home_pose, State::kReturn, now, out);
       }
       break;
     case State::kReturn:
-      joint_limit_met_ = false;  // home: the robot link went back to the home posture
+      way_.home();  // home: the robot link went back to the home posture
       if (current_) {
         orient(now, out);  // back from a blocked turn, or home on the way to a viewpoint: aim from here
       } else {

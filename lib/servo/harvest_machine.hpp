@@ -14,7 +14,8 @@
 // state table (states.hpp), which fruit next (selector, fruit_ledger), where
 // to aim (aiming), watching a pose goal (goal_monitor), following the fruit
 // in the hand image (hand_tracker), the last centimetres (ir_guidance), when
-// to close on a swaying fruit (wind: sway, tree_sway) and the command messages (commands).
+// to close on a swaying fruit (wind: sway, tree_sway), the way out of the canopy
+// (way_out) and the command messages (commands).
 #pragma once
 
 #include <cmath>
@@ -49,6 +50,7 @@
 #include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
+#include "servo/harvest/way_out.hpp"
 #include "servo/harvest/wind.hpp"
 #include "servo/servo_config.hpp"
 
@@ -172,16 +174,7 @@ class HarvestMachine {
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis (or the turn was blocked).
   void orient(rt::Micros now, MachineOutput& out);
-  // RETREAT goal: back by retreat_distance, or out of the canopy to abreast
-  // of where the approach began, whichever is farther.
   Eigen::Vector3d home_x() const { return cfg_.home_pose.rotation().col(0); }  // the roll ORIENT_PD holds
-  Eigen::Isometry3d retreat_goal(const Eigen::Isometry3d& from, double at_least) const {
-    return back_along_axis(from, approach_from_, at_least);
-  }
-  // ... or, the straight way to the next aim following it, only as far as that way needs to clear the fruit.
-  Eigen::Isometry3d clear_retreat_goal(const Eigen::Isometry3d& from, double at_least) const;
-  // The goal of the way out from `from` (at least `at_least` back): decides next_after_retreat_.
-  Eigen::Isometry3d way_out(const Eigen::Isometry3d& from, double at_least);
   // On the way home (RETURN, HOMING) a joint of the arm turns faster than goal_progress_joint_speed (newest robot
   // state): the joint-space path to the home posture may swing the elbow for seconds with the tool put, which is
   // progress too. Not elsewhere: an arm held at a joint limit while the link's null-space motion goes on must stall.
@@ -191,14 +184,6 @@ class HarvestMachine {
     for (const double v : robot_->joint_velocity)
       if (std::abs(v) > cfg_.goal_progress_joint_speed) return true;
     return false;
-  }
-  // pull_through: DETACH's goal is the retreat's end; the pull is over once the tool has come pull_distance back.
-  bool pulls_through() const {
-    return cfg_.pull_through && cfg_.release_at_detach && cfg_.release_while_retreating && approach_from_.has_value();
-  }
-  bool pulled_off(const Eigen::Isometry3d& tool) const {
-    return pull_from_ &&
-           (pull_from_->translation() - tool.translation()).dot(pull_from_->rotation().col(2)) >= cfg_.pull_distance;
   }
   // The fruit off the tree and in the hand: open the gripper, PICKED, and on out (RETREAT): on the goal under way
   // (pull_through) or on a new one.
@@ -251,15 +236,10 @@ class HarvestMachine {
   std::optional<gripper_state_t> gripper_;
 
   std::optional<Fruit> current_;
-  // Where the approach into the canopy began (the tool at the end of ORIENT):
-  // a retreat goes back along the tool axis at least that far.
-  std::optional<Eigen::Vector3d> approach_from_;
   // release_while_retreating: the gripper was told to open as the retreat began; it must say so by then.
   std::optional<rt::Micros> release_due_;
-  std::optional<Eigen::Isometry3d> pull_from_;  // pull_through: the tool where the fingers took hold (DETACH only)
-  bool next_after_retreat_ = false;    // the retreat under way ends a fruit: select at its end (straight_to_next)
   bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
-  bool joint_limit_met_ = false;       // a joint met its limit going in since the arm was last home
+  WayOut way_;  // out of the canopy after a fruit: the retreat's goal, where the next is turned to, the pull
 };
 
 }  // namespace harvest::servo

@@ -1,0 +1,64 @@
+// How the gripper leaves the canopy after a fruit (RETREAT, and DETACH's pull
+// running on into it): back along the tool axis out to abreast of where the
+// approach began, the palm retracing its way in; with the straight way to the
+// next aim following (straight_to_next), only as far as that way needs to
+// clear the fruit the fixed camera sees (retreat_clearance); whether the next
+// fruit is then turned to from the retreat's end or from home (after a joint
+// met its limit going in: the robot link's way home resets the arm's
+// posture); and, with pull_through, when the pull is over and the gripper
+// may let go. docs/servo-controller.md, "From one fruit to the next".
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+
+#include "harvest/targets_t.hpp"
+#include "servo/servo_config.hpp"
+
+namespace harvest::servo {
+
+class WayOut {
+ public:
+  // `straight`: straight_to_next with the pose-goal ORIENT (the thesis's law turns in place, at home).
+  WayOut(const ServoConfig& cfg, bool straight);
+
+  // The approach into the canopy began here (the tool at the end of ORIENT) ...
+  void approach_began(const Eigen::Vector3d& tool) { approach_from_ = tool; }
+  // ... and is over (the fruit done, the way out under way).
+  void approach_done() { approach_from_.reset(); }
+  bool approached() const { return approach_from_.has_value(); }
+  // A joint met its limit going in (ROBOT_STATE kFlagJointLimit); the arm home again.
+  void joint_limit_met() { joint_limit_met_ = true; }
+  void home() { joint_limit_met_ = false; }
+
+  // Back along the tool axis by `at_least`, or out to abreast of where the approach began, whichever is farther.
+  Eigen::Isometry3d retreat(const Eigen::Isometry3d& from, double at_least) const;
+  // The way out from `from`, at least `at_least` back; decides next_from_there(). With the next fruit turned to
+  // from its end and retreat_clearance > 0, only as far as the straight way to the aim from home passes that far
+  // from every target of `fixed` (null: none known, the full retreat).
+  Eigen::Isometry3d goal(const Eigen::Isometry3d& from, double at_least, const targets_t* fixed);
+  // The retreat under way ends a fruit: the next one is selected at its end, not at home.
+  bool next_from_there() const { return next_from_there_; }
+  // From somewhere unknown (a start away from home): home first.
+  void home_first() { next_from_there_ = false; }
+
+  // pull_through: the grasp's way out is one goal to the retreat's end (the fruit let go pull_distance back) ...
+  bool pulls_through() const { return pull_through_ && approach_from_.has_value(); }
+  void pull_from(const Eigen::Isometry3d& grasped) { pull_from_ = grasped; }
+  bool pulling_through() const { return pull_from_.has_value(); }
+  // ... or the plain pull (the way refused or blocked before the fruit came off; any state but DETACH).
+  void pull_alone() { pull_from_.reset(); }
+  // The tool has come pull_distance back along the axis it grasped with: the fruit is off.
+  bool pulled_off(const Eigen::Isometry3d& tool) const;
+
+ private:
+  bool straight_, home_after_joint_limit_, pull_through_;
+  double retreat_clearance_, palm_offset_, pull_distance_;
+  Eigen::Isometry3d home_;
+  std::optional<Eigen::Vector3d> approach_from_;
+  std::optional<Eigen::Isometry3d> pull_from_;  // where the fingers took hold (pull_through, DETACH only)
+  bool next_from_there_ = false;
+  bool joint_limit_met_ = false;  // since the arm was last home
+};
+
+}  // namespace harvest::servo
