@@ -78,6 +78,7 @@ inline constexpr Key<double> far_view_ahead{"far_view_ahead", 0.10, {0.0, 1e6}, 
 inline constexpr Key<double> far_view_age{"far_view_age", 0.15, {0.0, 1.0}, "s", "... a hand image no older than this (the estimate then has a current depth; a swaying fruit moves little meanwhile)"};
 inline constexpr Key<double> front_fruit_size_ratio{"front_fruit_size_ratio", 1.5, {1.0, 10.0}, "", "this many times the current fruit's size, covering the image centre: a nearer fruit in front"};
 inline constexpr Key<int> whole_fruit_border_px{"whole_fruit_border_px", 2, {0, 100}, "px", "a detection this near the image border is cut by it: no depth from its size"};
+inline constexpr Key<double> whole_min_visible{"whole_min_visible", 0.0, {0.0, 1.0}, "", "> 0: a hand detection whose visible fraction is below this is a piece of a fruit, not whole: no depth from its size (0: off; the learned detector sizes the piece it sees, docs/perception.md)"};
 inline constexpr Key<double> goal_progress_step{"goal_progress_step", 0.002, {1e-5, 0.1}, "m", "a pose-goal motion progresses by getting this much nearer (timeouts_s.stall without: blocked) ..."};
 inline constexpr Key<double> goal_progress_angle{"goal_progress_angle", 0.01, {1e-5, 0.5}, "rad", "... or this much"};
 inline constexpr Key<double> goal_progress_joint_speed{"goal_progress_joint_speed", 0.02, {0.0, 10.0}, "rad/s", "... or, on the way home (RETURN, HOMING), while a joint turns faster than this (the joint-space way to the home posture swings the elbow about a tool that stays put; 0: the tool only)"};
@@ -341,6 +342,7 @@ struct ServoConfig {
   double far_view_ahead = servo_keys::far_view_ahead.fallback;  // [m]
   double far_view_age = servo_keys::far_view_age.fallback;  // [s]
   int whole_fruit_border_px = servo_keys::whole_fruit_border_px.fallback;  // [px] a detection this near the image border is cut by it: no depth from its size
+  double whole_min_visible = servo_keys::whole_min_visible.fallback;  // ... nor one less visible than this (0: off)
   // A pose-goal motion progresses by getting goal_progress_step or
   // goal_progress_angle nearer its goal (timeouts.stall without: blocked).
   double goal_progress_step = servo_keys::goal_progress_step.fallback;  // [m]

@@ -99,12 +99,14 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   pixel_ = PixelMeasurement{match->u_px, match->v_px, msg.header.utime};
   pixel_rx_ = now;
   pixel_diameter_ = match->diameter_px;
-  // Whole: clear of the image border and not filling most of the image (near,
-  // under IR guidance): only then does its apparent size give a depth.
+  // Whole: clear of the image border, not filling most of the image (near,
+  // under IR guidance) and not a piece of a fruit (whole_min_visible): only
+  // then does its apparent size give a depth.
   const int border = cfg_.whole_fruit_border_px;
   const auto& b = match->bbox_px;
   pixel_whole_ = b[0] >= border && b[1] >= border && b[0] + b[2] <= msg.image_width - border &&
-                 b[1] + b[3] <= msg.image_height - border && match->diameter_px <= cfg_.fills_view * msg.image_height;
+                 b[1] + b[3] <= msg.image_height - border && match->diameter_px <= cfg_.fills_view * msg.image_height &&
+                 match->visible_fraction >= cfg_.whole_min_visible;
   pixel_crossing_ = pixel_whole_ ? cross(*pixel_, fruit, camera) : std::nullopt;
 }
 

@@ -239,6 +239,26 @@ TEST(HandTracker, AFruitCutByTheBorderOrFillingTheImageGivesNoDepth) {
   EXPECT_NEAR(f.estimate.z(), 0.5, 1e-12);
 }
 
+// whole_min_visible: a detection less visible than that is a piece of a fruit (the learned detector sizes the piece:
+// on the field look it read 0.17-0.86 of the fruit's size), its size no depth; off (0), any piece gives one.
+TEST(HandTracker, APieceOfAFruitGivesNoDepthWithWholeMinVisible) {
+  for (const double min_visible : {0.0, 0.4}) {
+    for (const double visible : {0.2, 0.5}) {
+      ServoConfig c = config();
+      c.whole_min_visible = min_visible;
+      HandTracker h(c);
+      Fruit f = fruit_ahead();
+      fruit_t d = detection(319.5, 239.5, 125);
+      d.visible_fraction = static_cast<float>(visible);
+      h.on_detections(image(7, {d}), f, kCamera, kT);
+      ASSERT_TRUE(h.fresh(kT).has_value());
+      EXPECT_EQ(h.whole(), visible >= min_visible) << min_visible << " " << visible;
+      h.on_hand_targets(hand_target(7, 99, d, {0.0, 0.0, 0.55}), f, kCamera, kT);
+      EXPECT_NEAR(f.estimate.z(), visible >= min_visible ? 0.55 : 0.5, 1e-12) << min_visible << " " << visible;
+    }
+  }
+}
+
 // Hand-worked: a detection 420 px across (of 480) covering the image centre,
 // its centre 42 px off it, while the fruit aimed at should look 125 px
 // across (833.57 x 0.075 / 0.5): a nearer fruit 0.1 diameters = 7.5 mm off the axis.
