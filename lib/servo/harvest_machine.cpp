@@ -80,7 +80,7 @@ void HarvestMachine::picked(rt::Micros now, MachineOutput& out) {
 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
-    const Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_ ? &*fixed_ : nullptr);
+    const Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_view());
     if (straight() && !way_.next_from_there()) note_ = "a joint met its limit going in: home first";
     start_goal(goal, State::kRetreat, now, out);
   } else {
@@ -318,8 +318,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
     // One motion from the grasp to the retreat's end (its goal as if from where the pull would end): no stop at
     // the end of the pull, whose braking and new start cost about 0.4 s a fruit; the fruit is let go on the way.
     const Eigen::Isometry3d grasped = tool();
-    Eigen::Isometry3d goal =
-        way_.goal(grasped, cfg_.pull_distance + cfg_.retreat_distance, fixed_ ? &*fixed_ : nullptr);
+    Eigen::Isometry3d goal = way_.goal(grasped, cfg_.pull_distance + cfg_.retreat_distance, fixed_view());
     goal.linear() = detach_goal(grasped, 0.0, cfg_.twist_angle).linear();
     start_goal(goal, State::kDetach, now, out);
     way_.pull_from(grasped);

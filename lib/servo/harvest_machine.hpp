@@ -96,7 +96,7 @@ class HarvestMachine {
   const std::vector<fruit_outcome_t>& outcomes() const { return ledger_.outcomes(); }
   // HARVEST_STATUS content (the node fills seq and publish time).
   harvest_status_t status() const {
-    return status_message(status_inputs(), ledger_, fixed_ ? &*fixed_ : nullptr, robot_ ? &*robot_ : nullptr);
+    return status_message(status_inputs(), ledger_, fixed_view(), robot_ ? &*robot_ : nullptr);
   }
   std::string summary() const { return summary_line(status_inputs(), ledger_.tally()); }
   int64_t workspace_clips() const { return commands_.workspace_clips(); }
@@ -110,6 +110,8 @@ class HarvestMachine {
   bool robot_fresh(rt::Micros now) const {
     return robot_ && now - robot_rx_ <= rt::from_seconds(cfg_.timeouts.robot_state);
   }
+  // The newest fixed-camera TARGETS, if any.
+  const targets_t* fixed_view() const { return fixed_ ? &*fixed_ : nullptr; }
   Eigen::Isometry3d tool() const { return robot_ ? to_isometry(robot_->tool_pose) : Eigen::Isometry3d::Identity(); }
   Eigen::Isometry3d camera() const { return robot_ ? to_isometry(robot_->camera_pose) : Eigen::Isometry3d::Identity(); }
   // The camera-in-hand when it took the image of `utime` (image_pose_gap), if the robot states around it are known.
