@@ -13,15 +13,12 @@ namespace harvest::servo {
 
 HarvestMachine::HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach)
     : cfg_(std::move(config)),
-      approach_(std::move(approach)),
       commands_(cfg_),
       goal_({cfg_.position_tolerance, cfg_.orient_tolerance},
             {cfg_.goal_progress_step, cfg_.goal_progress_angle, cfg_.timeouts.stall}),
       ledger_({cfg_.max_attempts_per_fruit, cfg_.same_fruit_distance, cfg_.same_sight_angle, cfg_.reused_id_distance}),
-      hand_(cfg_),
-      ir_(cfg_),
-      orientation_law_({cfg_.gains.kp_orient, cfg_.gains.kd_orient, cfg_.gains.derivative_filter}),
-      wind_(cfg_.sway),
+      going_in_(cfg_, std::move(approach)),
+      turning_(cfg_),
       way_(cfg_, straight()) {}
 
 // ---------------------------------------------------------------- transitions
@@ -31,7 +28,6 @@ void HarvestMachine::enter(State s, rt::Micros now, MachineOutput& out) {
   if (s != State::kDetach) way_.pull_alone();
   state_ = s;
   entered_at_ = now;
-  close_wait_since_.reset();
   out.status_changed = true;
   const StateSpec& row = spec(s);
   if (row.rests) stop_pending_ = true;
@@ -63,7 +59,7 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
                                 MachineOutput& out) {
   const rt::Micros selected_at = current_ ? current_->selected_at : now;
   end_fruit(outcome, detail, now, out);
-  hand_.forget_fruit();
+  going_in_.forget_fruit();
   // Given up before the gripper went in (not seen, measured out of reach): the tool is still out of the canopy,
   // where RETURN would go straight home; the tree is as it was at the selection.
   const bool before_going_in = state_ == State::kOrient || state_ == State::kAcquire || state_ == State::kApproach;
@@ -119,34 +115,24 @@ void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOut
 }
 
 void HarvestMachine::motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out) {
-  const std::string fruit = current_ ? "fruit " + std::to_string(current_->id) : "";
   switch (state_) {
     case State::kOrient:
-    case State::kOrientPd:
-      // The aim is a means to get the fruit into the hand image: an arm stopped short of it (a joint
-      // limit just before the viewpoint) with the fruit well inside the image acquires it from there.
-      if (in_hand_view(cfg_.hand_camera, camera(), current_->estimate, cfg_.in_view_margin)) {
-        note_ = fruit + ": the turn " + why + " short of its goal, the fruit in view";
+    case State::kOrientPd: {
+      const Turning::Blocked b = turning_.blocked(why, camera(), *current_);
+      if (b.action == Turning::Blocked::Action::kUnreachable) {
+        ledger_.use_up_attempts(current_->id);  // what the arm cannot reach now it never will
+        fail_fruit(fruit_outcome_t::UNREACHABLE, b.text, false, now, out);
+        break;
+      }
+      note_ = b.text;
+      if (b.action == Turning::Blocked::Action::kAcquire) {
         way_.approach_began(tool().translation());
         enter(State::kAcquire, now, out);
-      } else if (turning_from_retreat_) {
-        // The way from the end of the retreat is not the way from home: try the turn from home before any verdict.
-        note_ = fruit + ": the turn from the retreat " + why + ", turning from home";
-        start_goal(cfg_.home_pose, State::kReturn, now, out);
-      } else if (!current_->from_viewpoint && aim_from_viewpoint(cfg_, current_->estimate)) {
-        // Aiming happens outside the canopy: back home, then to the viewpoint.
-        note_ = fruit + ": the arm could not turn to it (" + why + "), aiming from a viewpoint";
-        current_->from_viewpoint = true;
-        start_goal(cfg_.home_pose, State::kReturn, now, out);
       } else {
-        ledger_.use_up_attempts(current_->id);  // what the arm cannot reach now it never will
-        fail_fruit(fruit_outcome_t::UNREACHABLE,
-                   (current_->from_viewpoint ? "the arm could not reach a viewpoint of it ("
-                                             : "the arm could not turn to it (") +
-                       why + ")",
-                   false, now, out);
+        start_goal(cfg_.home_pose, State::kReturn, now, out);  // the turn from home, or home to the viewpoint
       }
       break;
+    }
     case State::kBackoff:
       // A blocked back-off (a joint limit next to the canopy) gives up as for an IR that never triggered.
       fail_fruit(fruit_outcome_t::FAILED_GRASP, "IR sensor never triggered (back-off " + why + ")", true, now, out);
@@ -176,8 +162,8 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
       break;
     case Expiry::kIrAttempt:
       // Back along the tool axis (the palm retraces its way in) and try again, or give up.
-      if (ir_.attempts_left()) {
-        start_goal(back_along_axis(tool(), ir_.start(), 0.0), State::kBackoff, now, out);
+      if (going_in_.attempts_left()) {
+        start_goal(back_along_axis(tool(), going_in_.ir_start(), 0.0), State::kBackoff, now, out);
         break;
       }
       [[fallthrough]];
@@ -224,10 +210,7 @@ bool HarvestMachine::take_next(const Selection& s, MachineOutput& out) {
   if (!s.fruit) return false;
   current_ = s.fruit;
   ledger_.begin_attempt(current_->id);
-  approach_->reset();
-  approach_note_.clear();
-  hand_.forget_fruit();
-  wind_.new_fruit();
+  going_in_.new_fruit();
   if (current_->depth_doubtful)
     note_ = "fruit " + std::to_string(current_->id) + ": fixed-camera depth doubtful, aiming along its line of sight";
   return true;
@@ -239,30 +222,16 @@ void HarvestMachine::next_from_here(rt::Micros view_since, rt::Micros now, Machi
   // aim is the one from home. From here to there is RETURN's straight line, outside the canopy, turning on the way.
   if (fixed_ && fixed_rx_ > view_since &&
       take_next(select_fruit(cfg_, *fixed_, ledger_, cfg_.home_pose.translation(), now, tool().rotation()), out)) {
-    const OrientGoal g = orient_goal(cfg_, cfg_.home_pose, current_->estimate, current_->from_viewpoint);
-    current_->from_viewpoint = g.from_viewpoint;
-    // A viewpoint is reached from home (the way from elsewhere, after another viewpoint, may cross the canopy's
-    // front), or from within retreat_distance of it.
-    if (!g.from_viewpoint || (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance) {
-      start_goal(g.goal, State::kOrient, now, out);
-      turning_from_retreat_ = true;
-      return;
-    }
+    if (const auto goal = turning_.from_retreat(tool(), *current_)) return start_goal(*goal, State::kOrient, now, out);
   }
   // No fruit, or no fresh view: SELECT at home decides.
   start_goal(cfg_.home_pose, State::kReturn, now, out);
 }
 
 void HarvestMachine::orient(rt::Micros now, MachineOutput& out) {
-  turning_from_retreat_ = false;
-  const OrientGoal g = orient_goal(cfg_, tool(), current_->estimate, current_->from_viewpoint);
-  current_->from_viewpoint = g.from_viewpoint;
-  if (g.from_viewpoint || cfg_.orient_law != "thesis_pd") return start_goal(g.goal, State::kOrient, now, out);
-  // The thesis's law turns the tool in place to where it converges, watched as a goal.
-  Eigen::Isometry3d aimed = tool();
-  aimed.linear() = aimed_with_roll(tool(), current_->estimate, home_x());
-  goal_.start(aimed, now);
-  orientation_law_.reset();
+  const Turning::Start t = turning_.from_here(tool(), *current_);
+  if (!t.law) return start_goal(t.goal, State::kOrient, now, out);
+  goal_.start(t.goal, now);  // the law's own motion, watched as a goal
   enter(State::kOrientPd, now, out);
 }
 
@@ -279,9 +248,9 @@ MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
     out.status_changed = !fixed_;
     fixed_ = msg;
     fixed_rx_ = now;
-    wind_.on_fixed(msg, now);
+    going_in_.on_fixed(msg, now);
   } else if (current_) {
-    hand_.on_hand_targets(msg, *current_, image_camera(msg.header.utime), now);
+    going_in_.on_hand_targets(msg, *current_, camera(), now);
   }
   return out;
 }
@@ -290,7 +259,7 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
   MachineOutput out;
   robot_ = msg;
   robot_rx_ = now;
-  if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
+  going_in_.on_robot_state(msg);
   if (!running()) return out;
   if (const auto f = robot_fault(msg)) fault(*f, now, out);
   // A pose goal the robot link refused (no path it can run from here: a joint near its limit, the way leaving the
@@ -463,19 +432,19 @@ void HarvestMachine::step(rt::Micros now, MachineOutput& out) {
     case State::kAcquire:
     case State::kReacquire:
       out.robot = twist(Twist{});
-      if (hand_.fresh(now) && hand_.seen_at() > entered_at_) enter(State::kApproach, now, out);
+      if (going_in_.seen_since(now, entered_at_)) enter(State::kApproach, now, out);
       break;
     case State::kOrientPd:
       if (goal_.reached(tool())) return goal_reached(now, out);
       if (goal_.stalled(tool(), now)) return motion_blocked("stalled", now, out);
-      out.robot = twist(orientation_law_.update(tool(), current_->estimate, home_x(), cfg_.tick_period_s));
+      out.robot = twist(turning_.law_step(tool(), current_->estimate));
       break;
     case State::kApproach:
-      approach_step(now, out);
+      going_in(going_in_.approach(now, tool(), camera(), *current_), now, out);
       break;
     case State::kIrApproach:
-      feed_sway(now);
-      ir_step(now, out);
+      going_in_.watch_sway(now, tool(), camera(), *current_);
+      going_in(going_in_.ir(now, tool(), camera(), *current_), now, out);
       break;
     case State::kGrasp:
       grasp_step(out);
@@ -496,7 +465,7 @@ void HarvestMachine::goal_reached(rt::Micros now, MachineOutput& out) {
       enter(State::kAcquire, now, out);
       break;
     case State::kBackoff:
-      ir_.retry(tool().translation(), now);
+      going_in_.retry(tool().translation(), now);
       enter(State::kIrApproach, now, out);
       break;
     case State::kDetach:
@@ -540,132 +509,39 @@ void HarvestMachine::release(rt::Micros now, MachineOutput& out) {
   out.gripper = gripper(gripper_command_t::ACTION_OPEN);
 }
 
-std::optional<Eigen::Isometry3d> HarvestMachine::camera_at(rt::Micros utime) const {
-  if (cfg_.image_pose_gap <= 0.0) return std::nullopt;
-  return camera_poses_.at(utime, rt::from_seconds(cfg_.image_pose_gap));
-}
-
-std::optional<PixelMeasurement> HarvestMachine::hand_pixel(rt::Micros now) const {
-  auto pixel = hand_.fresh(now);
-  if (pixel) pixel->camera = camera_at(pixel->utime);
-  return pixel;
-}
-
-void HarvestMachine::approach_step(rt::Micros now, MachineOutput& out) {
-  const auto pixel = hand_pixel(now);
-  if (!pixel) {
-    enter(State::kReacquire, now, out);
-    out.robot = twist(Twist{});
-    return;
-  }
-  const Eigen::Isometry3d t = tool();
-  if (!current_->depth_doubtful && !cfg_.workspace.contains(current_->estimate)) {
-    // Measured by the camera-in-hand (eq. 6-15) where the arm may not go: beyond reach, or a neighbour's
-    // fragment followed in a cluttered view; not certain, so it counts as one attempt.
-    const bool moved = (t.translation() - cfg_.home_pose.translation()).norm() > 0.5 * cfg_.retreat_distance;
-    fail_fruit(fruit_outcome_t::UNREACHABLE, "the camera-in-hand measures it outside the workspace", moved, now, out);
-    return;
-  }
-  const double remaining = ahead_along_axis(t, current_->estimate);
-  std::string arrived_with;  // the strategy's own word on its arrival
-  if (approach_->has_own_goal()) {
-    // Teach by zooming: servoed to the zoomed view's pose, then IR guidance from wherever that is.
-    const ApproachOutput a = approach_->update({now, t, camera(), current_->estimate, pixel, std::nullopt});
-    if (!a.note.empty() && a.note != approach_note_) {
-      approach_note_ = note_ = a.note;
-      out.status_changed = true;
-    }
-    if (a.arrived ? !*a.arrived : remaining > cfg_.ir_switch_distance) {
-      out.robot = twist(a.twist);
-      return;
-    }
-    if (!a.note.empty()) arrived_with = a.note + "; ";  // how it got here (arrived, or fell back), in the IR line
-  } else if (remaining > cfg_.ir_switch_distance) {
-    out.robot = twist(approach_->update({now, t, camera(), current_->estimate, pixel, std::nullopt}).twist);
-    return;
-  }
-  ir_.begin(t.translation(), now);
-  note_ = arrived_with + "IR guidance from " + std::to_string(static_cast<int>(std::lround(remaining * 1000))) +
-          " mm (" + depth_source(current_->depth) + ")";
-  enter(State::kIrApproach, now, out);
-  ir_step(now, out);  // the first IR-guided command at once
-}
-
-void HarvestMachine::ir_step(rt::Micros now, MachineOutput& out) {
-  const Eigen::Isometry3d t = tool();
-  // Waiting to close on a swaying fruit: the IR said "inside" already (its reading changes as the fruit swings).
-  const IrStep s = close_wait_since_ ? IrStep{IrStep::Action::kClose, 0.0, 0.0, std::nullopt}
-                                     : ir_.step(now, t, *current_, hand_.fruit_in_front(now), sway_hold(now, t, out),
-                                                hand_.seen_whole(now));
+void HarvestMachine::going_in(const GoingIn::Step& s, rt::Micros now, MachineOutput& out) {
   if (s.note) {
     note_ = *s.note;
     out.status_changed = true;
   }
+  using Action = GoingIn::Step::Action;
   switch (s.action) {
-    case IrStep::Action::kFruitInTheWay:
-      fail_fruit(fruit_outcome_t::FAILED_GRASP,
-                 "a fruit in the way, " + std::to_string(std::lround(s.offset * 1000)) + " mm off the gripper axis",
-                 true, now, out);
+    case Action::kMove:
+      out.robot = twist(s.twist);
       break;
-    case IrStep::Action::kClose: {
-      // A swaying fruit: closed on when it is predicted on the gripper axis as the jaws meet; held still until then.
-      if (!close_wait_since_) close_wait_since_ = now;
-      const WindWatch::Close c = wind_.close(now, t, rt::to_seconds(now - *close_wait_since_), cfg_.tick_period_s);
-      if (!c.decision.close) {
-        out.robot = twist(Twist{});
-        break;
-      }
-      if (c.note) {
-        note_ = *c.note;
-        out.status_changed = true;
-      }
-      // Thesis HarvestStep5: close the gripper on the fruit.
-      out.gripper = gripper(gripper_command_t::ACTION_CLOSE);
-      ir_.closing_at(t.translation());
+    case Action::kLost:
+      enter(State::kReacquire, now, out);
+      out.robot = twist(Twist{});
+      break;
+    case Action::kOutOfReach:
+      fail_fruit(fruit_outcome_t::UNREACHABLE, s.detail, s.retreat, now, out);
+      break;
+    case Action::kFruitInTheWay:
+      fail_fruit(fruit_outcome_t::FAILED_GRASP, s.detail, true, now, out);
+      break;
+    case Action::kIrBegins:
+      enter(State::kIrApproach, now, out);
+      going_in(going_in_.ir(now, tool(), camera(), *current_), now, out);  // the first IR-guided command at once
+      break;
+    case Action::kClose:
+      out.gripper = gripper(gripper_command_t::ACTION_CLOSE);  // thesis HarvestStep5: close on the fruit
       enter(State::kGrasp, now, out);
       grasp_step(out);
       break;
-    }
-    case IrStep::Action::kGiveUp:
+    case Action::kGiveUp:
       on_timeout(now, out);  // out of travel, past the fruit or blocked: same as the IR timeout
       break;
-    case IrStep::Action::kHold:
-      out.robot = twist(Twist{});  // never advance blind
-      break;
-    case IrStep::Action::kAdvance:
-      out.robot = twist(approach_
-                            ->update({now, t, camera(), current_->estimate, hand_pixel(now), s.forward_speed,
-                                      wind_.tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window})
-                            .twist);
-      break;
   }
-}
-
-std::optional<double> HarvestMachine::sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out) {
-  const WindWatch::Hold h = wind_.hold(now, ahead_along_axis(tool, current_->estimate), current_->depth, hand_.whole());
-  if (h.note) {
-    note_ = *h.note;
-    out.status_changed = true;
-  }
-  return h.standoff;
-}
-
-void HarvestMachine::feed_sway(rt::Micros now) {
-  const auto pixel = hand_pixel(now);
-  if (!pixel || !wind_.unseen(pixel->utime) || !robot_ || !hand_.whole()) return;
-  // Whole fruit only: cut by the image border or filling the image, the centroid is not the fruit's centre.
-  // Under IR guidance only: the camera is near, the fruit near the image centre, and the arm no longer turns or
-  // sweeps sideways (earlier views, taken moving fast, showed a still fruit of experiment I swaying 21 mm at 0.28 Hz).
-  // Across the gripper axis only (the close needs nothing else): along it, the hand camera's depth from the apparent
-  // size errs by ~10 %, centimetres that would drown the sway. The axis keeps its direction from ORIENT on.
-  const Eigen::Vector3d seen = seen_in_base(cfg_.hand_camera, camera(), *pixel, current_->estimate);
-  const Eigen::Vector3d axis = tool().rotation().col(2);
-  wind_.add(pixel->utime, seen - axis.dot(seen) * axis);
-}
-
-void HarvestMachine::grasp_step(MachineOutput& out) {
-  const auto forward = ir_.grasp_twist(tool());
-  out.robot = forward ? twist(*forward) : stop();
 }
 
 }  // namespace harvest::servo

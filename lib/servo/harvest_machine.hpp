@@ -12,10 +12,11 @@
 //
 // The machine sequences; its parts in servo/harvest/ do one job each: the
 // state table (states.hpp), which fruit next (selector, fruit_ledger), where
-// to aim (aiming), watching a pose goal (goal_monitor), following the fruit
-// in the hand image (hand_tracker), the last centimetres (ir_guidance), when
-// to close on a swaying fruit (wind: sway, tree_sway), the way out of the canopy
-// (way_out) and the command messages (commands).
+// to aim (aiming), the turn to the fruit (turning), watching a pose goal
+// (goal_monitor), the way in from the hand image and the IR (going_in:
+// following the fruit in the hand image, hand_tracker; the last centimetres,
+// ir_guidance; when to close on a swaying fruit, wind: sway, tree_sway), the
+// way out of the canopy (way_out) and the command messages (commands).
 #pragma once
 
 #include <cmath>
@@ -24,7 +25,6 @@
 #include <string>
 #include <vector>
 
-#include "geometry/pose_history.hpp"
 #include "harvest/emergency_stop_t.hpp"
 #include "harvest/fruit_detections_t.hpp"
 #include "harvest/fruit_outcome_t.hpp"
@@ -44,14 +44,12 @@
 #include "servo/harvest/fruit.hpp"
 #include "servo/harvest/fruit_ledger.hpp"
 #include "servo/harvest/goal_monitor.hpp"
-#include "servo/harvest/hand_tracker.hpp"
-#include "servo/harvest/ir_guidance.hpp"
-#include "servo/harvest/orientation_law.hpp"
+#include "servo/harvest/going_in.hpp"
 #include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
+#include "servo/harvest/turning.hpp"
 #include "servo/harvest/way_out.hpp"
-#include "servo/harvest/wind.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
@@ -73,14 +71,12 @@ class HarvestMachine {
   MachineOutput on_targets(const targets_t& msg, rt::Micros now);
   MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
     if (current_ && spec(state_).follows_fruit && msg.status == fruit_detections_t::STATUS_OK && robot_)
-      hand_.on_detections(msg, *current_, image_camera(msg.header.utime), now);
+      going_in_.on_hand_detections(msg, *current_, camera(), now);
     return {};
   }
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
-    // The fold-back rule (a near reading, then a far one: the fruit inside) is not for a fruit seen to sway: it
-    // swings out of the beam as well, and in tree_wind every close the rule made closed beside or short of one.
-    ir_.on_reading(msg, now, state_ == State::kIrApproach && wind_.fold_back_allowed());
+    going_in_.on_ir(msg, now, state_ == State::kIrApproach);
     return {};
   }
   MachineOutput on_gripper(const gripper_state_t& msg, rt::Micros now);
@@ -101,9 +97,9 @@ class HarvestMachine {
   std::string summary() const { return summary_line(status_inputs(), ledger_.tally()); }
   int64_t workspace_clips() const { return commands_.workspace_clips(); }
   // The approach strategy, for the node to feed strategy-specific inputs (FEATURE_MATCHES for tbz).
-  ApproachStrategy& approach() { return *approach_; }
-  const ApproachStrategy& approach() const { return *approach_; }
-  std::string approach_name() const { return approach_->name(); }
+  ApproachStrategy& approach() { return going_in_.strategy(); }
+  const ApproachStrategy& approach() const { return going_in_.strategy(); }
+  std::string approach_name() const { return going_in_.strategy().name(); }
 
  private:
   bool running() const { return spec(state_).running; }
@@ -114,12 +110,6 @@ class HarvestMachine {
   const targets_t* fixed_view() const { return fixed_ ? &*fixed_ : nullptr; }
   Eigen::Isometry3d tool() const { return robot_ ? to_isometry(robot_->tool_pose) : Eigen::Isometry3d::Identity(); }
   Eigen::Isometry3d camera() const { return robot_ ? to_isometry(robot_->camera_pose) : Eigen::Isometry3d::Identity(); }
-  // The camera-in-hand when it took the image of `utime` (image_pose_gap), if the robot states around it are known.
-  std::optional<Eigen::Isometry3d> camera_at(rt::Micros utime) const;
-  // ... else the newest pose.
-  Eigen::Isometry3d image_camera(rt::Micros utime) const { return camera_at(utime).value_or(camera()); }
-  // The followed centroid of the current fruit, if fresh, with the camera pose it was seen from.
-  std::optional<PixelMeasurement> hand_pixel(rt::Micros now) const;
   // A command names the newest TARGETS taken in (its utime is that camera frame's, its source_seq that TARGETS
   // seq), so a log traces it back to the frame; every earlier TARGETS was in the machine's state too. Before the
   // first, the robot state it was computed from.
@@ -148,14 +138,13 @@ class HarvestMachine {
   void motion_blocked(const std::string& why, rt::Micros now, MachineOutput& out);
   void on_timeout(rt::Micros now, MachineOutput& out);
   void release(rt::Micros now, MachineOutput& out);  // RELEASE: open the gripper
-  void approach_step(rt::Micros now, MachineOutput& out);
-  void ir_step(rt::Micros now, MachineOutput& out);
+  // What a step of the way in (APPROACH, IR_APPROACH) says, done: its note, the command, the next state.
+  void going_in(const GoingIn::Step& s, rt::Micros now, MachineOutput& out);
   // GRASP: on along the tool axis while the fingers close (IrGuidance::grasp_twist), then STOP.
-  void grasp_step(MachineOutput& out);
-  // IR_APPROACH: a new hand-camera view of the current fruit goes to the sway estimator.
-  void feed_sway(rt::Micros now);
-  // Whether IR guidance stands off the current fruit now, and how far (WindWatch::hold; its note to the status).
-  std::optional<double> sway_hold(rt::Micros now, const Eigen::Isometry3d& tool, MachineOutput& out);
+  void grasp_step(MachineOutput& out) {
+    const auto forward = going_in_.grasp_twist(tool());
+    out.robot = forward ? twist(*forward) : stop();
+  }
 
   // START: SELECT from the home pose, else retreat and return home first.
   void begin_from_home(rt::Micros now, MachineOutput& out);
@@ -176,7 +165,6 @@ class HarvestMachine {
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis (or the turn was blocked).
   void orient(rt::Micros now, MachineOutput& out);
-  Eigen::Vector3d home_x() const { return cfg_.home_pose.rotation().col(0); }  // the roll ORIENT_PD holds
   // On the way home (RETURN, HOMING) a joint of the arm turns faster than goal_progress_joint_speed (newest robot
   // state): the joint-space path to the home posture may swing the elbow for seconds with the tool put, which is
   // progress too. Not elsewhere: an arm held at a joint limit while the link's null-space motion goes on must stall.
@@ -206,15 +194,11 @@ class HarvestMachine {
   void fault(const std::string& detail, rt::Micros now, MachineOutput& out);
 
   ServoConfig cfg_;
-  std::unique_ptr<ApproachStrategy> approach_;
   CommandBuilder commands_;
   GoalMonitor goal_;
   FruitLedger ledger_;
-  HandTracker hand_;
-  IrGuidance ir_;
-  OrientationLaw orientation_law_;
-  WindWatch wind_;                              // the current fruit's sway and the tree's, the hold, the timed close
-  std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
+  GoingIn going_in_;  // APPROACH and IR_APPROACH: the hand image, the approach strategy, the IR, the wind
+  Turning turning_;   // ORIENT: the turn to the fruit (pose goal or the thesis's law) and a blocked turn's verdict
 
   State state_ = State::kIdle;
   bool paused_ = false;
@@ -224,11 +208,9 @@ class HarvestMachine {
   rt::Micros deadline_ = 0;  // 0: none
   rt::Micros paused_at_ = 0;
   std::string note_;
-  std::string approach_note_;  // the approach strategy's last note (shown once per change)
 
   std::optional<robot_state_t> robot_;
   rt::Micros robot_rx_ = 0;
-  geometry::PoseHistory camera_poses_{64};  // ROBOT_STATE camera poses by their utime (about 0.6 s at 100 Hz)
   struct Source {
     int64_t utime, seq;
   };
@@ -240,7 +222,6 @@ class HarvestMachine {
   std::optional<Fruit> current_;
   // release_while_retreating: the gripper was told to open as the retreat began; it must say so by then.
   std::optional<rt::Micros> release_due_;
-  bool turning_from_retreat_ = false;  // the ORIENT under way started at the end of a retreat, not at home
   WayOut way_;  // out of the canopy after a fruit: the retreat's goal, where the next is turned to, the pull
 };
 
