@@ -77,7 +77,7 @@ void HarvestMachine::picked(rt::Micros now, MachineOutput& out) {
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
     const Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_view());
-    if (straight() && !way_.next_from_there()) note_ = "a joint met its limit going in: home first";
+    if (const auto note = way_.home_first_note()) note_ = *note;
     start_goal(goal, State::kRetreat, now, out);
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
@@ -92,7 +92,7 @@ void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, 
   release_due_ = now + rt::from_seconds(cfg_.timeouts.release);
   if (!goal_under_way) return picked(now, out);
   end_fruit(fruit_outcome_t::PICKED, "", now, out);
-  if (straight() && !way_.next_from_there()) note_ = "a joint met its limit going in: home first";
+  if (const auto note = way_.home_first_note()) note_ = *note;
   way_.approach_done();
   enter(State::kRetreat, now, out);  // the same goal, the arm on its way
   out.robot = commands_.pose_goal(stamp(), goal_.goal());
@@ -184,16 +184,9 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
 
 void HarvestMachine::begin_from_home(rt::Micros now, MachineOutput& out) {
   release_due_.reset();
-  // Every fruit is selected and aimed at from home (the view the fixed camera's estimate is good for): a
-  // start anywhere else (after an e-stop next to the canopy) backs out along the tool axis and returns first.
-  if (pose_reached(tool(), cfg_.home_pose, {cfg_.position_tolerance, cfg_.orient_tolerance})) {
-    enter(State::kSelect, now, out);
-  } else if ((tool().translation() - cfg_.home_pose.translation()).norm() > cfg_.retreat_distance) {
-    start_goal(back_along_axis(tool(), std::nullopt, cfg_.retreat_distance), State::kRetreat, now, out);
-    way_.home_first();  // from an unknown place: home first
-  } else {
-    start_goal(cfg_.home_pose, State::kReturn, now, out);
-  }
+  const WayOut::Start s = way_.start(tool(), {cfg_.position_tolerance, cfg_.orient_tolerance});
+  if (s.action == WayOut::Start::Action::kSelect) return enter(State::kSelect, now, out);
+  start_goal(s.goal, s.action == WayOut::Start::Action::kRetreat ? State::kRetreat : State::kReturn, now, out);
 }
 
 void HarvestMachine::select(rt::Micros now, MachineOutput& out) {
@@ -284,13 +277,7 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
   }
   const bool holding = msg.state == gripper_state_t::STATE_HOLDING;
   if (state_ == State::kGrasp && holding && way_.pulls_through()) {
-    // One motion from the grasp to the retreat's end (its goal as if from where the pull would end): no stop at
-    // the end of the pull, whose braking and new start cost about 0.4 s a fruit; the fruit is let go on the way.
-    const Eigen::Isometry3d grasped = tool();
-    Eigen::Isometry3d goal = way_.goal(grasped, cfg_.pull_distance + cfg_.retreat_distance, fixed_view());
-    goal.linear() = detach_goal(grasped, 0.0, cfg_.twist_angle).linear();
-    start_goal(goal, State::kDetach, now, out);
-    way_.pull_from(grasped);
+    start_goal(way_.through(tool(), fixed_view()), State::kDetach, now, out);  // the fruit let go on the way
   } else if (state_ == State::kGrasp && holding) {
     start_goal(detach_goal(tool(), cfg_.pull_distance, cfg_.twist_angle), State::kDetach, now, out);
   } else if (state_ == State::kGrasp && msg.state == gripper_state_t::STATE_CLOSED) {

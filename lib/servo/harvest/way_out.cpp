@@ -13,6 +13,8 @@ WayOut::WayOut(const ServoConfig& cfg, bool straight)
       retreat_clearance_(cfg.retreat_clearance),
       palm_offset_(cfg.palm_offset),
       pull_distance_(cfg.pull_distance),
+      retreat_distance_(cfg.retreat_distance),
+      twist_angle_(cfg.twist_angle),
       home_(cfg.home_pose) {}
 
 Eigen::Isometry3d WayOut::retreat(const Eigen::Isometry3d& from, double at_least) const {
@@ -26,6 +28,23 @@ Eigen::Isometry3d WayOut::goal(const Eigen::Isometry3d& from, double at_least, c
   std::vector<Eigen::Vector3d> fruit;
   for (const auto& t : fixed->targets) fruit.emplace_back(t.position_base[0], t.position_base[1], t.position_base[2]);
   return clear_retreat(from, approach_from_, at_least, home_, fruit, retreat_clearance_, palm_offset_);
+}
+
+WayOut::Start WayOut::start(const Eigen::Isometry3d& tool, const GoalTolerances& at_home) {
+  // Every fruit is selected and aimed at from home (the view the fixed camera's estimate is good for).
+  if (pose_reached(tool, home_, at_home)) return {Start::Action::kSelect};
+  if ((tool.translation() - home_.translation()).norm() <= retreat_distance_) return {Start::Action::kReturn, home_};
+  next_from_there_ = false;  // from an unknown place: home first
+  return {Start::Action::kRetreat, back_along_axis(tool, std::nullopt, retreat_distance_)};
+}
+
+Eigen::Isometry3d WayOut::through(const Eigen::Isometry3d& grasped, const targets_t* fixed) {
+  // No stop at the end of the pull, whose braking and new start cost about 0.4 s a fruit; the fruit is let go on
+  // the way (pulled_off).
+  Eigen::Isometry3d way = goal(grasped, pull_distance_ + retreat_distance_, fixed);
+  way.linear() = detach_goal(grasped, 0.0, twist_angle_).linear();
+  pull_from_ = grasped;
+  return way;
 }
 
 bool WayOut::pulled_off(const Eigen::Isometry3d& tool) const {

@@ -11,8 +11,10 @@
 
 #include <Eigen/Geometry>
 #include <optional>
+#include <string>
 
 #include "harvest/targets_t.hpp"
+#include "servo/harvest/goal_monitor.hpp"
 #include "servo/servo_config.hpp"
 
 namespace harvest::servo {
@@ -39,12 +41,26 @@ class WayOut {
   Eigen::Isometry3d goal(const Eigen::Isometry3d& from, double at_least, const targets_t* fixed);
   // The retreat under way ends a fruit: the next one is selected at its end, not at home.
   bool next_from_there() const { return next_from_there_; }
-  // From somewhere unknown (a start away from home): home first.
-  void home_first() { next_from_there_ = false; }
+  // The retreat under way goes home first although the next fruit would be turned to from its end: the status note.
+  std::optional<std::string> home_first_note() const {
+    if (straight_ && !next_from_there_) return "a joint met its limit going in: home first";
+    return std::nullopt;
+  }
+
+  // START with the tool at `tool`: already home (within `at_home`) SELECT there; else back out along the tool axis
+  // by retreat_distance first if farther than that from home (after an e-stop next to the canopy; home first),
+  // or straight home.
+  struct Start {
+    enum class Action { kSelect, kRetreat, kReturn } action;
+    Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
+  };
+  Start start(const Eigen::Isometry3d& tool, const GoalTolerances& at_home);
 
   // pull_through: the grasp's way out is one goal to the retreat's end (the fruit let go pull_distance back) ...
   bool pulls_through() const { return pull_through_ && approach_from_.has_value(); }
-  void pull_from(const Eigen::Isometry3d& grasped) { pull_from_ = grasped; }
+  // One motion from the fingers' hold at `grasped` to the retreat's end (its goal as if from where the pull would
+  // end; twist_angle about the axis spread over the way); the pull is then under way.
+  Eigen::Isometry3d through(const Eigen::Isometry3d& grasped, const targets_t* fixed);
   bool pulling_through() const { return pull_from_.has_value(); }
   // ... or the plain pull (the way refused or blocked before the fruit came off; any state but DETACH).
   void pull_alone() { pull_from_.reset(); }
@@ -53,7 +69,7 @@ class WayOut {
 
  private:
   bool straight_, home_after_joint_limit_, pull_through_;
-  double retreat_clearance_, palm_offset_, pull_distance_;
+  double retreat_clearance_, palm_offset_, pull_distance_, retreat_distance_, twist_angle_;
   Eigen::Isometry3d home_;
   std::optional<Eigen::Vector3d> approach_from_;
   std::optional<Eigen::Isometry3d> pull_from_;  // where the fingers took hold (pull_through, DETACH only)

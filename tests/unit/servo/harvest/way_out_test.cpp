@@ -49,11 +49,11 @@ TEST(WayOut, TheNextFruitFromTheRetreatsEndUnlessAJointMetItsLimitGoingIn) {
   w.joint_limit_met();
   w.goal(at(0, 0, 1), 0.15, nullptr);
   EXPECT_FALSE(w.next_from_there());
+  EXPECT_EQ(w.home_first_note(), "a joint met its limit going in: home first");
   w.home();
   w.goal(at(0, 0, 1), 0.15, nullptr);
   EXPECT_TRUE(w.next_from_there());
-  w.home_first();
-  EXPECT_FALSE(w.next_from_there());
+  EXPECT_FALSE(w.home_first_note().has_value());
   cfg.home_after_joint_limit = false;
   WayOut keeps_on(cfg, true);
   keeps_on.joint_limit_met();
@@ -94,8 +94,16 @@ TEST(WayOut, ThePullIsOverOncePullDistanceBackAlongTheGraspAxis) {
   EXPECT_FALSE(w.pulls_through());  // no approach under way
   w.approach_began(Eigen::Vector3d::Zero());
   EXPECT_TRUE(w.pulls_through());
-  w.pull_from(at(0.0, 0.0, 1.0));
+  // The one motion: to abreast of where the approach began (farther than pull_distance + retreat_distance,
+  // 0.25 m), turned twist_angle about the grasp axis.
+  const Eigen::Isometry3d way = w.through(at(0.0, 0.0, 1.0), nullptr);
+  EXPECT_NEAR(way.translation().z(), 0.0, 1e-12);
+  EXPECT_NEAR(Eigen::AngleAxisd(way.rotation()).angle(), cfg.twist_angle, 1e-12);
+  EXPECT_NEAR(std::abs(Eigen::AngleAxisd(way.rotation()).axis().z()), 1.0, 1e-12);
   EXPECT_TRUE(w.pulling_through());
+  WayOut shallow(cfg, true);  // the approach began 0.1 m short of the grasp: at least 0.25 m back
+  shallow.approach_began(Eigen::Vector3d(0.0, 0.0, 0.9));
+  EXPECT_NEAR(shallow.through(at(0.0, 0.0, 1.0), nullptr).translation().z(), 0.75, 1e-12);
   EXPECT_FALSE(w.pulled_off(at(0.3, 0.0, 0.91)));
   EXPECT_TRUE(w.pulled_off(at(0.0, 0.0, 0.89)));
   w.pull_alone();
@@ -105,6 +113,26 @@ TEST(WayOut, ThePullIsOverOncePullDistanceBackAlongTheGraspAxis) {
   WayOut at_rest(cfg, true);
   at_rest.approach_began(Eigen::Vector3d::Zero());
   EXPECT_FALSE(at_rest.pulls_through());
+}
+
+// START: at home (within the tolerances) SELECT; within retreat_distance (0.15 m) of home straight home; farther
+// (after an e-stop next to the canopy) back along the tool axis by retreat_distance, then home (not the next fruit
+// from there).
+TEST(WayOut, AStartAwayFromHomeBacksOutAlongTheAxisThenGoesHome) {
+  ServoConfig cfg;
+  cfg.home_pose = at(0.5, 0.0, 0.0);
+  WayOut w(cfg, true);
+  const GoalTolerances tol{0.005, 0.02};
+  EXPECT_EQ(w.start(at(0.503, 0.0, 0.0), tol).action, WayOut::Start::Action::kSelect);
+  WayOut::Start s = w.start(at(0.5, 0.0, 0.14), tol);
+  EXPECT_EQ(s.action, WayOut::Start::Action::kReturn);
+  EXPECT_TRUE(s.goal.isApprox(cfg.home_pose));
+  w.goal(at(0, 0, 1), 0.15, nullptr);
+  ASSERT_TRUE(w.next_from_there());
+  s = w.start(at(0.0, 0.0, 1.0), tol);
+  EXPECT_EQ(s.action, WayOut::Start::Action::kRetreat);
+  EXPECT_TRUE(s.goal.isApprox(at(0.0, 0.0, 0.85)));
+  EXPECT_FALSE(w.next_from_there());
 }
 
 }  // namespace
