@@ -107,7 +107,7 @@ void HarvestMachine::pull_first(const std::string& why, rt::Micros now, MachineO
 
 void HarvestMachine::fault(const std::string& detail, rt::Micros now, MachineOutput& out) {
   end_fruit(fruit_outcome_t::ABORTED, detail, now, out);
-  paused_ = false;
+  desk_.unpause();
   enter(State::kFault, now, out);
   note_ = "FAULT: " + detail;
   out.robot = stop();
@@ -268,7 +268,6 @@ MachineOutput HarvestMachine::on_robot_state(const robot_state_t& msg, rt::Micro
 
 MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros now) {
   MachineOutput out;
-  gripper_ = msg;
   if (release_due_ && released(msg)) release_due_.reset();  // whatever the state: DONE may come first
   if (!running()) return out;
   if (const auto f = gripper_fault(msg)) {
@@ -295,77 +294,58 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
 MachineOutput HarvestMachine::on_operator(const operator_command_t& msg, rt::Micros now) {
   MachineOutput out;
   out.status_changed = true;
-  const std::string who = msg.source.empty() ? "operator" : msg.source;
-  if (const auto refused = refusal(msg.command, {state_, paused_, estop_, robot_fresh(now)})) {
-    note_ = "command refused: " + *refused + " (from " + who + ")";  // harvest-operator reads the sender
-    out.log = note_;
-    return out;
-  }
-  switch (msg.command) {
-    case operator_command_t::START:
-      note_ = "started by " + who;
+  const OperatorDesk::Order o = desk_.command(msg, state_, robot_fresh(now), now);
+  using Do = OperatorDesk::Order::Do;
+  switch (o.what) {
+    case Do::kRefused:
+      out.log = o.note;
+      break;
+    case Do::kStart:
       begin_from_home(now, out);
       break;
-    case operator_command_t::PAUSE:
-      paused_ = true;
-      paused_at_ = now;
-      note_ = "paused by " + who;
+    case Do::kPause:
       out.robot = stop();
       break;
-    case operator_command_t::RESUME:
-      paused_ = false;
-      // Timeouts do not run while paused.
-      if (deadline_ != 0) deadline_ += now - paused_at_;
-      if (release_due_) *release_due_ += now - paused_at_;
-      goal_.shift(now - paused_at_);
+    case Do::kResume:  // the timeouts do not run while paused
+      if (deadline_ != 0) deadline_ += o.paused_for;
+      if (release_due_) *release_due_ += o.paused_for;
+      goal_.shift(o.paused_for);
       commands_.ramp_from_rest();
-      note_ = "resumed by " + who;
       break;
-    case operator_command_t::ABORT:
+    case Do::kAbort:
       end_fruit(fruit_outcome_t::ABORTED, "operator abort", now, out);
-      paused_ = false;
       // Never a way out of a latched e-stop or fault: those stay until cleared.
-      if (!estop_ && state_ != State::kFault) {
+      if (!desk_.estop() && state_ != State::kFault) {
         enter(State::kIdle, now, out);
         stop_pending_ = false;
       }
-      note_ = "aborted by " + who;
       out.robot = stop();
       break;
-    case operator_command_t::HOME:
+    case Do::kHome:
       end_fruit(fruit_outcome_t::ABORTED, "operator home", now, out);
-      paused_ = false;
       start_goal(cfg_.home_pose, State::kHoming, now, out);
-      note_ = "homing (" + who + ")";
       break;
-    case operator_command_t::RESET_FAULT:
-      note_ = "fault reset by " + who;
+    case Do::kResetFault:
       enter(State::kIdle, now, out);
       break;
   }
+  note_ = o.note;
   return out;
 }
 
 MachineOutput HarvestMachine::on_estop(const emergency_stop_t& msg, rt::Micros now) {
   MachineOutput out;
-  if (msg.engaged) {
-    // Stop first, then bookkeeping: the STOP goes out with this very message.
-    out.robot = stop();
-    if (!estop_) {
-      end_fruit(fruit_outcome_t::ABORTED, "emergency stop", now, out);
-      estop_ = true;
-      paused_ = false;
-      enter(State::kEstop, now, out);
-      note_ = "EMERGENCY STOP from " + msg.source + (msg.reason.empty() ? "" : ": " + msg.reason);
-      out.log = note_;
-    }
-  } else if (msg.clear && estop_) {
-    estop_ = false;
-    note_ = "emergency stop cleared by " + msg.source;
-    out.log = note_;
+  const OperatorDesk::Stop s = desk_.on_estop(msg);
+  using Do = OperatorDesk::Stop::Do;
+  if (s.what == Do::kHold || s.what == Do::kEngage) out.robot = stop();  // the STOP goes out with this very message
+  if (s.what == Do::kEngage) {
+    end_fruit(fruit_outcome_t::ABORTED, "emergency stop", now, out);
+    enter(State::kEstop, now, out);
+  } else if (s.what == Do::kClear) {
     enter(State::kIdle, now, out);
     stop_pending_ = false;
   }
+  if (!s.note.empty()) out.log = note_ = s.note;
   return out;
 }
 
@@ -373,7 +353,7 @@ MachineOutput HarvestMachine::on_estop(const emergency_stop_t& msg, rt::Micros n
 
 MachineOutput HarvestMachine::tick(rt::Micros now) {
   MachineOutput out;
-  if (estop_ || state_ == State::kFault) {
+  if (desk_.estop() || state_ == State::kFault) {
     out.robot = stop();  // keep the arm held while latched
     return out;
   }
@@ -389,7 +369,7 @@ MachineOutput HarvestMachine::tick(rt::Micros now) {
   if (!running()) return out;
   if (!robot_fresh(now)) {
     fault("robot state stale (watchdog)", now, out);
-  } else if (paused_) {
+  } else if (desk_.paused()) {
     out.robot = stop();
   } else if (deadline_ != 0 && now >= deadline_) {
     on_timeout(now, out);

@@ -16,7 +16,8 @@
 // (goal_monitor), the way in from the hand image and the IR (going_in:
 // following the fruit in the hand image, hand_tracker; the last centimetres,
 // ir_guidance; when to close on a swaying fruit, wind: sway, tree_sway), the
-// way out of the canopy (way_out) and the command messages (commands).
+// way out of the canopy (way_out), the operator's commands and the e-stop
+// (operator_desk) and the command messages (commands).
 #pragma once
 
 #include <cmath>
@@ -45,6 +46,7 @@
 #include "servo/harvest/fruit_ledger.hpp"
 #include "servo/harvest/goal_monitor.hpp"
 #include "servo/harvest/going_in.hpp"
+#include "servo/harvest/operator_desk.hpp"
 #include "servo/harvest/selector.hpp"
 #include "servo/harvest/states.hpp"
 #include "servo/harvest/status.hpp"
@@ -86,8 +88,8 @@ class HarvestMachine {
   MachineOutput tick(rt::Micros now);
 
   State state() const { return state_; }
-  bool paused() const { return paused_; }
-  bool estop() const { return estop_; }
+  bool paused() const { return desk_.paused(); }
+  bool estop() const { return desk_.estop(); }
   int current_fruit() const { return current_ ? current_->id : -1; }
   const std::vector<fruit_outcome_t>& outcomes() const { return ledger_.outcomes(); }
   // HARVEST_STATUS content (the node fills seq and publish time).
@@ -123,7 +125,7 @@ class HarvestMachine {
     return CommandBuilder::gripper(robot_ ? robot_->header.utime : 0, action);
   }
   StatusInputs status_inputs() const {
-    return {state_, paused_, estop_, current_ ? std::optional<int>(current_->id) : std::nullopt, note_};
+    return {state_, desk_.paused(), desk_.estop(), current_ ? std::optional<int>(current_->id) : std::nullopt, note_};
   }
 
   void enter(State s, rt::Micros now, MachineOutput& out);
@@ -201,12 +203,10 @@ class HarvestMachine {
   Turning turning_;   // ORIENT: the turn to the fruit (pose goal or the thesis's law) and a blocked turn's verdict
 
   State state_ = State::kIdle;
-  bool paused_ = false;
-  bool estop_ = false;
+  OperatorDesk desk_;          // the operator's commands, the pause, the latched e-stop
   bool stop_pending_ = false;  // publish one STOP on the next tick (entering a resting state)
   rt::Micros entered_at_ = 0;
   rt::Micros deadline_ = 0;  // 0: none
-  rt::Micros paused_at_ = 0;
   std::string note_;
 
   std::optional<robot_state_t> robot_;
@@ -217,7 +217,6 @@ class HarvestMachine {
   std::optional<Source> vision_;  // the newest valid TARGETS, either camera
   std::optional<targets_t> fixed_;
   rt::Micros fixed_rx_ = 0;
-  std::optional<gripper_state_t> gripper_;
 
   std::optional<Fruit> current_;
   // release_while_retreating: the gripper was told to open as the retreat began; it must say so by then.
