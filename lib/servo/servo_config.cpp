@@ -68,6 +68,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.orient_tolerance = n.get(k::orient_tolerance);
   c.position_tolerance = n.get(k::position_tolerance);
   c.retreat_distance = n.get(k::retreat_distance);
+  c.gone_in_distance = n.get(k::gone_in_distance);
   c.retreat_clearance = n.get(k::retreat_clearance);
   c.palm_offset = n.get(k::palm_offset);
   c.pull_distance = n.get(k::pull_distance);
@@ -81,6 +82,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.fruit_order = n.get(k::fruit_order);
   c.max_attempts_per_fruit = n.get(k::max_attempts_per_fruit);
   c.association_gate_px = n.get(k::association_gate_px);
+  c.association_tie_weight = n.get(k::association_tie_weight);
+  c.association_tie_weight_doubtful = n.get(k::association_tie_weight_doubtful);
   c.association_size_ratio = n.get(k::association_size_ratio);
   c.min_ahead_of_home = n.get(k::min_ahead_of_home);
   c.max_aim_angle = n.get(k::max_aim_angle);
@@ -164,6 +167,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.close_tolerance = sw.get(ks::close_tolerance);
   c.sway.hold_spread = sw.get(ks::hold_spread);
   c.sway.hold_standoff = sw.get(ks::hold_standoff);
+  c.sway.at_standoff = sw.get(ks::at_standoff);
   c.sway.hold_time = sw.get(ks::hold_time);
   c.sway.hold_check = sw.get(ks::hold_check);
   c.sway.still_spread = sw.get(ks::still_spread);
@@ -224,10 +228,10 @@ std::vector<config::Section> ServoConfig::schema() {
           k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel, k::ir_overshoot,
           k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement,
           k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
-          k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::retreat_clearance,
+          k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::gone_in_distance, k::retreat_clearance,
           k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
           k::pull_through, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
-          k::max_attempts_per_fruit, k::association_gate_px, k::association_size_ratio, k::min_ahead_of_home,
+          k::max_attempts_per_fruit, k::association_gate_px, k::association_tie_weight, k::association_tie_weight_doubtful, k::association_size_ratio, k::min_ahead_of_home,
           k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
           k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,
           k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio,
@@ -245,7 +249,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit,
                       k::sway::max_centre_offset, k::sway::close_delay, k::sway::close_tolerance, k::sway::hold_spread,
-                      k::sway::hold_standoff, k::sway::hold_time, k::sway::hold_check, k::sway::still_spread,
+                      k::sway::hold_standoff, k::sway::at_standoff, k::sway::hold_time, k::sway::hold_check, k::sway::still_spread,
                       k::sway::max_wait, k::sway::tree_window, k::sway::tree_min_span, k::sway::tree_min_fruit,
                       k::sway::tree_quantile, k::sway::tree_still_rms, k::sway::tree_still_skips_hold),
       config::section("servo_controller.tbz", where, k::tbz::lambda_w, k::tbz::lambda_v, k::tbz::desired_depth_estimate,

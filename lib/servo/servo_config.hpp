@@ -46,6 +46,7 @@ inline constexpr Key<int> ir_attempts{"ir_attempts", 2, {1, 10}, "", "IR approac
 inline constexpr Key<double> orient_tolerance{"orient_tolerance", 0.02, {1e-6, 1e6}, "rad", "orientation reached"};
 inline constexpr Key<double> position_tolerance{"position_tolerance", 0.005, {1e-6, 1e6}, "m", "pose goal reached"};
 inline constexpr Key<double> retreat_distance{"retreat_distance", 0.15, {0.0, 1e6}, "m", "pull back along the tool axis after a failure"};
+inline constexpr Key<double> gone_in_distance{"gone_in_distance", 0.075, {0.0, 1e6}, "m", "a fruit the camera-in-hand measures outside the workspace during APPROACH, with the tool farther than this from home: it has gone into the canopy and backs out along its axis first"};
 inline constexpr Key<double> retreat_clearance{"retreat_clearance", 0.0, {0.0, 1.0}, "m", "> 0 (e.g. 0.12): a retreat followed by the straight way to the next aim ends where that way passes this far from every fruit the fixed camera sees (0: always abreast of where the approach began; 0.12 picked fewer on four tree seeds, docs/demo.md)"};
 inline constexpr Key<double> palm_offset{"palm_offset", 0.05, {0.0, 0.5}, "m", "the palm (IR sensor) this far behind the tool point along its axis: the gripper's body that retreat_clearance keeps clear too"};
 inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
@@ -58,6 +59,8 @@ inline constexpr Key<bool> home_after_joint_limit{"home_after_joint_limit", true
 inline constexpr Key<double> release_opening{"release_opening", 0.5, {0.0, 1.0}, "", "share of the full opening at which the fruit is let go and RELEASE ends (1: wait for OPEN)"};
 inline constexpr Key<int> max_attempts_per_fruit{"max_attempts_per_fruit", 2, {1, 10}, "", "attempts per fruit in all; a failed one is retried after every untried one"};
 inline constexpr Key<double> association_gate_px{"association_gate_px", 80.0, {1e-6, 1e6}, "px", "a hand detection must lie this close to the predicted pixel"};
+inline constexpr Key<double> association_tie_weight{"association_tie_weight", 0.25, {0.0, 10.0}, "", "among hand detections near the image of the fixed camera's line of sight, the weight of their distance to the predicted pixel beside their distance to the line"};
+inline constexpr Key<double> association_tie_weight_doubtful{"association_tie_weight_doubtful", 0.01, {0.0, 10.0}, "", "... while the fixed camera's depth is doubtful (its predicted point means little)"};
 inline constexpr Key<double> association_size_ratio{"association_size_ratio", 0.0, {0.0, 100.0}, "", "> 0 (e.g. 1.6): while following a hand detection, the next one's apparent diameter within this factor of its (a piece of the fruit or a neighbour of another size is not it; 0: off, untested on trees)"};
 inline constexpr Key<double> min_ahead_of_home{"min_ahead_of_home", 0.05, {-10.0, 10.0}, "m", "a target must lie this far ahead of the tool at home, along its axis"};
 inline constexpr Key<double> max_aim_angle{"max_aim_angle", 1.15, {0.0, 1.6}, "rad", "a fruit farther off the gripper axis at home is aimed at from a viewpoint"};
@@ -143,6 +146,7 @@ inline constexpr Key<double> close_delay{"close_delay", 0.6, {0.0, 5.0}, "s", "f
 inline constexpr Key<double> close_tolerance{"close_tolerance", 0.006, {0.0, 0.1}, "m", "close a swaying fruit when predicted this near the gripper axis at the end of the close ..."};
 inline constexpr Key<double> hold_spread{"hold_spread", 0.0025, {0.0, 1.0}, "m", "positions seen under IR guidance spread more than this (rms about their mean): the fruit sways, and the approach holds ..."};
 inline constexpr Key<double> hold_standoff{"hold_standoff", 0.2, {0.0, 1.0}, "m", "... this far short of it (its centre ahead of the tool point; 0: never holds) ..."};
+inline constexpr Key<double> at_standoff{"at_standoff", 0.01, {0.0, 0.2}, "m", "braking toward the standoff the arm nears it ever more slowly: within this of it, it is there"};
 inline constexpr Key<double> hold_time{"hold_time", 2.5, {0.0, 30.0}, "s", "... this long, centring on its mean, before going in (at least gains.sway_window and one sway period)"};
 inline constexpr Key<double> hold_check{"hold_check", 0.8, {0.0, 30.0}, "s", "> 0: after this long held, the views since the hold began decide early: spread less than still_spread, the fruit is still after all; no whole view, nothing to watch; either way it goes in (0: always the whole hold_time)"};
 inline constexpr Key<double> still_spread{"still_spread", 0.002, {0.0, 1.0}, "m", "... the spread (rms about their mean) below which the held fruit is still"};
@@ -254,6 +258,7 @@ struct ServoConfig {
   double orient_tolerance = servo_keys::orient_tolerance.fallback;     // [rad] orientation reached
   double position_tolerance = servo_keys::position_tolerance.fallback;  // [m] pose goal reached
   double retreat_distance = servo_keys::retreat_distance.fallback;     // [m] pull back along the tool axis after a failure
+  double gone_in_distance = servo_keys::gone_in_distance.fallback;     // [m] a tool this far from home has gone in
   // A retreat followed by the straight way to the next fruit's aim (turning
   // on the way) ends, short of abreast of where the approach began, at the
   // first place from where that way passes retreat_clearance from every fruit
@@ -287,6 +292,8 @@ struct ServoConfig {
   std::string fruit_order{servo_keys::fruit_order.fallback};
   int max_attempts_per_fruit = servo_keys::max_attempts_per_fruit.fallback;     // attempts per fruit in total; a failed one is retried after every untried one
   double association_gate_px = servo_keys::association_gate_px.fallback;  // hand detection must lie this close to the predicted pixel
+  double association_tie_weight = servo_keys::association_tie_weight.fallback;  // near the line of sight: weight of the point
+  double association_tie_weight_doubtful = servo_keys::association_tie_weight_doubtful.fallback;  // ... for a doubtful depth
   double association_size_ratio = servo_keys::association_size_ratio.fallback;  // ... and, while followed, keep its size within this factor
   double min_ahead_of_home = servo_keys::min_ahead_of_home.fallback;    // [m] a target must lie this far ahead of the tool at home, along its axis
   // A fruit more than max_aim_angle off the gripper axis at home, or one the
@@ -378,6 +385,7 @@ struct ServoConfig {
     double close_tolerance = servo_keys::sway::close_tolerance.fallback;  // [m]
     double hold_spread = servo_keys::sway::hold_spread.fallback;          // [m]
     double hold_standoff = servo_keys::sway::hold_standoff.fallback;      // [m]
+    double at_standoff = servo_keys::sway::at_standoff.fallback;          // [m]
     double hold_time = servo_keys::sway::hold_time.fallback;              // [s]
     double hold_check = servo_keys::sway::hold_check.fallback;            // [s]
     double still_spread = servo_keys::sway::still_spread.fallback;        // [m]

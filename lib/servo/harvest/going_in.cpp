@@ -46,7 +46,7 @@ GoingIn::Step GoingIn::approach(rt::Micros now, const Eigen::Isometry3d& tool, c
     // fragment followed in a cluttered view; not certain, so it counts as one attempt.
     s.action = Step::Action::kOutOfReach;
     s.detail = "the camera-in-hand measures it outside the workspace";
-    s.retreat = (tool.translation() - cfg_.home_pose.translation()).norm() > 0.5 * cfg_.retreat_distance;
+    s.retreat = (tool.translation() - cfg_.home_pose.translation()).norm() > cfg_.gone_in_distance;
     return s;
   }
   const double remaining = ahead_along_axis(tool, fruit.estimate);

@@ -72,7 +72,7 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   // predicted point decides too: a little for a doubtful depth, more for a
   // plausible one. A neighbour nearer the point but off the line is another
   // fruit at another depth.
-  const double tie_weight = doubtful ? 0.01 : 0.25;
+  const double tie_weight = doubtful ? cfg_.association_tie_weight_doubtful : cfg_.association_tie_weight;
   double best = std::numeric_limits<double>::infinity();
   const fruit_t* match = nullptr;
   // While following, the apparent size changes little from one image to the next (the tool advancing 13 mm a frame

@@ -3,12 +3,6 @@
 #include <fmt/format.h>
 
 namespace harvest::servo {
-namespace {
-
-// Braking toward the standoff the arm nears it ever more slowly: within this it is there [m].
-constexpr double kAtStandoff = 0.01;
-
-}  // namespace
 
 void WindWatch::new_fruit() {
   sway_.reset();
@@ -48,7 +42,7 @@ WindWatch::Hold WindWatch::hold(rt::Micros now, double ahead, Fruit::Depth depth
                                         "mm rms across the axis not held for",
                                         tree.rms * 1e3, tree.fruit, spread * 1e3)};
     }
-    if (ahead > p_.hold_standoff + kAtStandoff) return {p_.hold_standoff, std::nullopt};  // on the way there
+    if (ahead > p_.hold_standoff + p_.at_standoff) return {p_.hold_standoff, std::nullopt};  // on the way there
     if (!whole) {  // there (or past it), the fruit not whole in the image: nothing to watch, go on
       held_ = true;
       return {};

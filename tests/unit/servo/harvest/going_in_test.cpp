@@ -89,7 +89,7 @@ TEST(GoingIn, TheFruitNotInTheHandImageIsLost) {
 }
 
 // 0.95 m ahead of home is y = 1.35, beyond the workspace box: out of reach, backed out of the canopy only if the
-// tool has gone in more than half retreat_distance (0.075 m) from home. A doubtful depth is not a measurement.
+// tool has gone in more than gone_in_distance (0.075 m) from home. A doubtful depth is not a measurement.
 TEST(GoingIn, AFruitMeasuredOutsideTheWorkspaceIsOutOfReachBackingOutOnlyIfTheToolWentIn) {
   Fixture x;
   GoingIn::Step s = x.approach(0.0, 0.95);
@@ -102,6 +102,13 @@ TEST(GoingIn, AFruitMeasuredOutsideTheWorkspaceIsOutOfReachBackingOutOnlyIfTheTo
   s = x.approach(0.08, 0.87);
   EXPECT_EQ(s.action, GoingIn::Step::Action::kOutOfReach);
   EXPECT_TRUE(s.retreat);
+  Fixture deeper;  // gone_in_distance 0.1 m instead of 0.075
+  deeper.cfg.gone_in_distance = 0.1;
+  GoingIn in(deeper.cfg, make_approach(deeper.cfg));
+  const Eigen::Isometry3d at = tool_ahead(deeper.cfg, 0.08);
+  const Fruit far = fruit(deeper.cfg, 0.95);
+  in.on_hand_detections(seen_on_axis(deeper.cfg, 1), far, at, kT);
+  EXPECT_FALSE(in.approach(kT, at, at, far).retreat);
   Fixture doubtful;
   const Eigen::Isometry3d home = doubtful.cfg.home_pose;
   Fruit f = fruit(doubtful.cfg, 0.95);

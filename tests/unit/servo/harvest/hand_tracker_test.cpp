@@ -85,6 +85,20 @@ TEST(HandTracker, FollowsTheDetectionNearestTheFruitWithinTheGate) {
   EXPECT_FALSE(h.fresh(kT + 33'000 + rt::from_seconds(0.31)).has_value());
 }
 
+// The line of sight images onto v = 239.5. (450, 240) lies on it (0.5 px) 130 px from the predicted point,
+// (340, 250) 10.5 px off it 23 px from the point: scores 0.5 + 0.25 x 130 = 33 against 10.5 + 0.25 x 23 = 16.2
+// with association_tie_weight 0.25, the second chosen; with 0 the line alone decides, the first.
+TEST(HandTracker, TheTieWeightTradesTheLineOfSightAgainstThePredictedPoint) {
+  for (const double weight : {0.25, 0.0}) {
+    ServoConfig c = config();
+    c.association_tie_weight = weight;
+    HandTracker h(c);
+    h.on_detections(image(1, {detection(450, 240, 60), detection(340, 250, 60)}), fruit_ahead(), kCamera, kT);
+    ASSERT_TRUE(h.fresh(kT).has_value());
+    EXPECT_FLOAT_EQ(h.fresh(kT)->u, weight > 0.0 ? 340.0f : 450.0f);
+  }
+}
+
 // While following, a detection of another apparent size (beyond a factor
 // 1.6: a piece of the fruit, a neighbour nearer or farther) is not the fruit,
 // however near; one within the factor is. A new fruit starts afresh.

@@ -68,6 +68,12 @@ TEST(WindWatch, ASwayingFruitIsHeldAtTheStandoffForTheHoldTimeThenGoneInOn) {
   ASSERT_TRUE(h.standoff);
   ASSERT_TRUE(h.note);
   EXPECT_NE(h.note->find("held 205 mm short of it for 2.5 s"), std::string::npos) << *h.note;
+  ServoConfig::Sway wide = p;  // at_standoff 0.01 m: 0.23 m ahead is still on the way; with 0.05, there
+  wide.at_standoff = 0.05;
+  WindWatch w2{wide};
+  views(w2, 0.0, 3.0, 0.015, 0.4);
+  EXPECT_FALSE(w.hold(from_seconds(3.0), 0.23, kSized, true).note);
+  EXPECT_TRUE(w2.hold(from_seconds(3.0), 0.23, kSized, true).note);
   views(w, 3.0, 5.7, 0.015, 0.4);
   for (const double t : {3.5, 4.0, 5.0, 5.55}) {  // held 0.4 .. 2.45 s: past hold_check, spreading: still held
     h = w.hold(from_seconds(t), 0.2, kSized, true);
