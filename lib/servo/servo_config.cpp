@@ -155,6 +155,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.sway.window = sw.get(ks::window);
   c.sway.min_samples = sw.get(ks::min_samples);
   c.sway.min_span = sw.get(ks::min_span);
+  c.sway.min_periods_seen = sw.get(ks::min_periods_seen);
   c.sway.min_frequency_hz = sw.get(ks::min_frequency_hz);
   c.sway.max_frequency_hz = sw.get(ks::max_frequency_hz);
   c.sway.frequency_step_hz = sw.get(ks::frequency_step_hz);
@@ -245,7 +246,7 @@ std::vector<config::Section> ServoConfig::schema() {
                       g::kd_orient),
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost,
                       t::reacquire, t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),
-      config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span,
+      config::section("servo_controller.sway", where, k::sway::window, k::sway::min_samples, k::sway::min_span, k::sway::min_periods_seen,
                       k::sway::min_frequency_hz, k::sway::max_frequency_hz, k::sway::frequency_step_hz,
                       k::sway::min_amplitude, k::sway::max_amplitude, k::sway::min_confidence, k::sway::learn_fruit,
                       k::sway::max_centre_offset, k::sway::close_delay, k::sway::close_tolerance, k::sway::hold_spread,

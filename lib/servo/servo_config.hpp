@@ -134,6 +134,7 @@ namespace sway {  // the sway estimator and the timed close (servo/harvest/sway.
 inline constexpr Key<double> window{"window", 6.0, {0.1, 60.0}, "s", "hand-camera positions of the current fruit kept for the sway fit"};
 inline constexpr Key<int> min_samples{"min_samples", 12, {5, 10000}, "", "fewer positions than this: still"};
 inline constexpr Key<double> min_span{"min_span", 0.8, {0.0, 60.0}, "s", "positions over less time than this: still"};
+inline constexpr Key<double> min_periods_seen{"min_periods_seen", 0.4, {0.05, 10.0}, "", "a frequency is tried only on views spanning at least this many of its periods (a sinusoid seen over less than half its period is a drift with a bend)"};
 inline constexpr Key<double> min_frequency_hz{"min_frequency_hz", 0.2, {0.01, 20.0}, "Hz", "sway frequencies tried: from ..."};
 inline constexpr Key<double> max_frequency_hz{"max_frequency_hz", 2.0, {0.01, 20.0}, "Hz", "... to (at least min_frequency_hz) ..."};
 inline constexpr Key<double> frequency_step_hz{"frequency_step_hz", 0.02, {0.001, 5.0}, "Hz", "... in steps of"};
@@ -373,6 +374,7 @@ struct ServoConfig {
     double window = servo_keys::sway::window.fallback;                    // [s]
     int min_samples = servo_keys::sway::min_samples.fallback;
     double min_span = servo_keys::sway::min_span.fallback;                // [s]
+    double min_periods_seen = servo_keys::sway::min_periods_seen.fallback;
     double min_frequency_hz = servo_keys::sway::min_frequency_hz.fallback;
     double max_frequency_hz = servo_keys::sway::max_frequency_hz.fallback;
     double frequency_step_hz = servo_keys::sway::frequency_step_hz.fallback;

@@ -9,9 +9,6 @@ namespace harvest::servo {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-// A sinusoid seen over less than half its period is a drift with a bend:
-// frequencies that low for the span are not tried.
-constexpr double kMinPeriodsSeen = 0.4;
 // The scan for the best moment to close [s].
 constexpr double kScanStep = 0.01;
 
@@ -72,7 +69,7 @@ void SwayEstimator::reset() {
     fruit_seen_.resize(unexplained_.size(), 0);
     for (int i = 0; i < grid_size(); ++i) {
       const double hz = grid_hz(i);
-      if (own.span_s * hz < kMinPeriodsSeen) continue;  // too short a look to tell this frequency from a drift
+      if (own.span_s * hz < p_.min_periods_seen) continue;  // too short a look to tell this frequency from a drift
       unexplained_[static_cast<std::size_t>(i)] += 1.0 - fit_at(hz).confidence;
       ++fruit_seen_[static_cast<std::size_t>(i)];
     }
@@ -125,7 +122,7 @@ SwayFit SwayEstimator::fit() const {
     best->learned_frequency = true;
   } else {
     for (int i = 0; i < grid_size(); ++i) {
-      if (still.span_s * grid_hz(i) < kMinPeriodsSeen) continue;
+      if (still.span_s * grid_hz(i) < p_.min_periods_seen) continue;
       SwayFit f = fit_at(grid_hz(i));
       if (!best || f.rms_residual < best->rms_residual) best = f;
     }

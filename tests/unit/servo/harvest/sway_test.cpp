@@ -97,6 +97,22 @@ TEST(SwayEstimator, ACameraDriftIsNotASway) {
   EXPECT_FALSE(e.fit().swaying);
 }
 
+// min_periods_seen 0.4: views over 0.9 s try frequencies from 0.4 / 0.9 = 0.44 Hz up, so tree_wind's 0.4 Hz is not
+// among them; 0.2 lets it be (from 0.22 Hz).
+TEST(SwayEstimator, AFrequencyIsTriedOnlyOverEnoughOfItsPeriod) {
+  for (const double periods : {0.4, 0.2}) {
+    ServoConfig::Sway p;
+    p.min_periods_seen = periods;
+    SwayEstimator e{p};
+    see_swaying(e, 0.0, 0.9);
+    const SwayFit f = e.fit();
+    if (periods == 0.4)
+      EXPECT_GE(f.frequency_hz, 0.4 / 0.9 - 1e-9);
+    else
+      EXPECT_LT(f.frequency_hz, 0.4 / 0.9 - 1e-9);
+  }
+}
+
 TEST(SwayEstimator, TooLittleSeenIsStill) {
   ServoConfig::Sway p;  // min_samples 12, min_span 0.8 s
   SwayEstimator few{p};
