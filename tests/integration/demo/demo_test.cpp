@@ -120,8 +120,12 @@ TEST(Demo, AFreshRecordingReplaysTheSameOrWithEveryDifferenceExplained) {
   approximate.wait(std::chrono::seconds(120));
   const std::string without = approximate.output();
   EXPECT_EQ(without.find("replayed from its journal"), std::string::npos) << without;
-  EXPECT_NE(without.find("DIFF ROBOT_COMMAND"), std::string::npos) << "the controller's ticks at their due times\n"
-                                                                   << without;
+  // The controller ticks at their due times, not when the live ones ran: its commands or its statuses (a cycle time
+  // read off the tick) differ. Which one depends on the live run's jitter (a short run can keep every command).
+  EXPECT_TRUE(without.find("DIFF ROBOT_COMMAND") != std::string::npos ||
+              without.find("DIFF HARVEST_STATUS") != std::string::npos)
+      << "the controller's ticks at their due times\n"
+      << without;
 }
 
 // The field-faithful set: the simulator plays only the hardware; the robot
