@@ -64,7 +64,7 @@ void HarvestMachine::fail_fruit(int8_t outcome, const std::string& detail, bool 
   // where RETURN would go straight home; the tree is as it was at the selection.
   const bool before_going_in = state_ == State::kOrient || state_ == State::kAcquire || state_ == State::kApproach;
   if (!retreat && before_going_in && straight() &&
-      (tool().translation() - cfg_.home_pose.translation()).norm() <= cfg_.retreat_distance)
+      out_of_canopy(cfg_.home_pose, cfg_.retreat_distance, tool().translation()))
     return next_from_here(selected_at, now, out);
   head_home(retreat, now, out);
 }

@@ -66,6 +66,13 @@ Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const std::option
                                 double at_least, const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
                                 double clearance, double palm, double step = 0.02);
 
+// The tool within `retreat_distance` of `home` is out of the canopy: the straight way home, or to an aim from
+// home, crosses no fruit (a start there returns straight home; a turn to a viewpoint, or to the next fruit after
+// one given up before going in, starts from there).
+inline bool out_of_canopy(const Eigen::Isometry3d& home, double retreat_distance, const Eigen::Vector3d& tool) {
+  return (tool - home.translation()).norm() <= retreat_distance;
+}
+
 // DETACH: the tool pulled `pull` back along its axis while turned `twist` about it.
 Eigen::Isometry3d detach_goal(const Eigen::Isometry3d& tool, double pull, double twist);
 

@@ -22,7 +22,7 @@ Turning::Start Turning::from_here(const Eigen::Isometry3d& tool, Fruit& fruit) {
 std::optional<Eigen::Isometry3d> Turning::from_retreat(const Eigen::Isometry3d& tool, Fruit& fruit) {
   const OrientGoal g = orient_goal(cfg_, cfg_.home_pose, fruit.estimate, fruit.from_viewpoint);
   fruit.from_viewpoint = g.from_viewpoint;
-  if (g.from_viewpoint && (tool.translation() - cfg_.home_pose.translation()).norm() > cfg_.retreat_distance)
+  if (g.from_viewpoint && !out_of_canopy(cfg_.home_pose, cfg_.retreat_distance, tool.translation()))
     return std::nullopt;
   from_retreat_ = true;
   return g.goal;

@@ -33,7 +33,7 @@ Eigen::Isometry3d WayOut::goal(const Eigen::Isometry3d& from, double at_least, c
 WayOut::Start WayOut::start(const Eigen::Isometry3d& tool, const GoalTolerances& at_home) {
   // Every fruit is selected and aimed at from home (the view the fixed camera's estimate is good for).
   if (pose_reached(tool, home_, at_home)) return {Start::Action::kSelect};
-  if ((tool.translation() - home_.translation()).norm() <= retreat_distance_) return {Start::Action::kReturn, home_};
+  if (out_of_canopy(home_, retreat_distance_, tool.translation())) return {Start::Action::kReturn, home_};
   next_from_there_ = false;  // from an unknown place: home first
   return {Start::Action::kRetreat, back_along_axis(tool, std::nullopt, retreat_distance_)};
 }

@@ -128,6 +128,15 @@ TEST(Aiming, OrientFromAViewpointWhenTheTurnAtHomeIsTooWideOrWasBlocked) {
   EXPECT_LT((g.goal.translation() - home.translation()).norm(), 1e-12);
 }
 
+// retreat_distance 0.15 m: 0.15 m from home (the boundary included) is out of the canopy, 0.151 m is not.
+TEST(Aiming, OutOfTheCanopyWithinRetreatDistanceOfHome) {
+  const ServoConfig c = config();
+  const Eigen::Vector3d home = c.home_pose.translation();
+  EXPECT_TRUE(out_of_canopy(c.home_pose, c.retreat_distance, home));
+  EXPECT_TRUE(out_of_canopy(c.home_pose, c.retreat_distance, home + Eigen::Vector3d(0.0, 0.09, 0.12)));
+  EXPECT_FALSE(out_of_canopy(c.home_pose, c.retreat_distance, home + Eigen::Vector3d(0.151, 0.0, 0.0)));
+}
+
 TEST(Aiming, BackAlongTheAxisToAbreastOfAPointOrAtLeastSoFar) {
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
   tool.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);  // axis along +z
