@@ -78,10 +78,19 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   // While following, the apparent size changes little from one image to the next (the tool advancing 13 mm a frame
   // at full speed 10 cm from the fruit: 13 %): a fruit near the camera broken into pieces by leaves and highlights
   // (a 250 px fruit became five 40-80 px pieces in a full-tree run) is not followed onto a piece.
+  // The size it should have now is the last one scaled by how much nearer the camera has come to the estimate since
+  // that image (the estimate's own error mostly cancels in the ratio): coming in at full speed the fruit grows by
+  // itself, and a jump beyond it is something else: a piece, or a nearer fruit merged with it in one detection (a
+  // tree_wind run followed such a merge, 115 -> 176 px in one image, and closed 32 mm beside the fruit).
   const double ratio = cfg_.association_size_ratio;
+  double grown_px = pixel_diameter_;
+  if (following) {
+    const double then = (pixel_camera_.inverse() * fruit.estimate).z();
+    if (then > 0.01 && depth > 0.01) grown_px *= then / depth;
+  }
   const auto size_fits = [&](const fruit_t& f) {
-    if (!following || ratio <= 0.0 || pixel_diameter_ <= 0.0f || f.diameter_px <= 0.0f) return true;
-    const double r = static_cast<double>(f.diameter_px) / static_cast<double>(pixel_diameter_);
+    if (!following || ratio <= 0.0 || grown_px <= 0.0 || f.diameter_px <= 0.0f) return true;
+    const double r = static_cast<double>(f.diameter_px) / grown_px;
     return r <= ratio && r * ratio >= 1.0;
   };
   for (const auto& f : msg.fruits) {
@@ -99,6 +108,7 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   pixel_ = PixelMeasurement{match->u_px, match->v_px, msg.header.utime};
   pixel_rx_ = now;
   pixel_diameter_ = match->diameter_px;
+  pixel_camera_ = camera;
   // Whole: clear of the image border, not filling most of the image (near,
   // under IR guidance) and not a piece of a fruit (whole_min_visible): only
   // then does its apparent size give a depth.

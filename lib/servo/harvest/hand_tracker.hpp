@@ -72,6 +72,7 @@ class HandTracker {
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
   float pixel_diameter_ = 0.0f;                    // ... its apparent diameter [px]
+  Eigen::Isometry3d pixel_camera_ = Eigen::Isometry3d::Identity();  // ... the camera that took it
   bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
   std::optional<Eigen::Vector3d> pixel_crossing_;  // ... where its ray crosses the fixed camera's line of sight
   rt::Micros fruit_fills_view_rx_ = 0;  // last hand image with a fruit filling it on the gripper axis (0: none)

@@ -131,6 +131,29 @@ TEST(HandTracker, AFollowedFruitIsNotFollowedOntoAPieceOfAnotherSize) {
   EXPECT_EQ(h.fresh(kT + rt::from_seconds(1.0))->utime, 6);
 }
 
+// The size a followed fruit should have is the last one grown by how far the camera came toward the estimate:
+// coming from 0.5 to 0.35 m the fruit grows from 100 to 143 px by itself and is followed at a factor of 1.3; a
+// detection 1.5 times that (a nearer fruit merged with it) is not, nor a piece.
+TEST(HandTracker, TheSizeGateAllowsForTheCameraComingNearer) {
+  ServoConfig sized = config();
+  sized.association_size_ratio = 1.3;
+  HandTracker h(sized);
+  const Fruit f = fruit_ahead();
+  h.on_detections(image(1, {detection(320, 240, 100)}), f, kCamera, kT);
+  ASSERT_TRUE(h.fresh(kT).has_value());
+  Eigen::Isometry3d nearer = kCamera;
+  nearer.translation() = Eigen::Vector3d(0.0, 0.0, 0.15);
+  h.on_detections(image(2, {detection(322, 240, 214)}), f, nearer, kT + 33'000);
+  EXPECT_EQ(h.fresh(kT + 33'000)->utime, 1);  // 214 / 143: merged with a nearer fruit
+  h.on_detections(image(3, {detection(322, 240, 70)}), f, nearer, kT + 66'000);
+  EXPECT_EQ(h.fresh(kT + 66'000)->utime, 1);  // a piece
+  h.on_detections(image(4, {detection(322, 240, 150)}), f, nearer, kT + 99'000);
+  EXPECT_EQ(h.fresh(kT + 99'000)->utime, 4);  // 150 / 143: the fruit, grown
+  // Seen from the same place again, 150 px stays the size: 1.3 times more is refused.
+  h.on_detections(image(5, {detection(322, 240, 200)}), f, nearer, kT + 132'000);
+  EXPECT_EQ(h.fresh(kT + 132'000)->utime, 4);
+}
+
 TEST(HandTracker, NothingWithinTheGateIsNoMeasurement) {
   HandTracker h(config());
   Fruit f = fruit_ahead();
