@@ -74,13 +74,24 @@ void HarvestMachine::picked(rt::Micros now, MachineOutput& out) {
 
 void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out) {
   if (retreat) {
-    const Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_view());
+    Eigen::Isometry3d goal = way_.goal(tool(), cfg_.retreat_distance, fixed_view());
+    turn_ahead(goal, now);
     if (const auto note = way_.home_first_note()) note_ = *note;
     start_goal(goal, State::kRetreat, now, out);
   } else {
     start_goal(cfg_.home_pose, State::kReturn, now, out);
   }
   way_.approach_done();
+}
+
+void HarvestMachine::turn_ahead(Eigen::Isometry3d& way_out, rt::Micros now) const {
+  if (!cfg_.turn_while_retreating || !way_.next_from_there() || !fixed_) return;
+  FruitLedger ledger = ledger_;
+  if (current_)
+    ledger.record(fruit_outcome_t::PICKED, current_->id, current_->estimate, "", 0.0, tool().translation(), &*current_);
+  const Selection s = select_fruit(cfg_, *fixed_, ledger, cfg_.home_pose.translation(), now, tool().rotation());
+  // The straight line out with a constant-axis rotation: inside the canopy the gripper has turned only a little.
+  if (const auto aim = s.fruit ? turning_.ahead(*s.fruit) : std::nullopt) way_out.linear() = *aim;
 }
 
 void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, MachineOutput& out) {

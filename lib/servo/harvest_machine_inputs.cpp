@@ -51,7 +51,9 @@ MachineOutput HarvestMachine::on_gripper(const gripper_state_t& msg, rt::Micros 
   }
   const bool holding = msg.state == gripper_state_t::STATE_HOLDING;
   if (state_ == State::kGrasp && holding && way_.pulls_through()) {
-    start_goal(way_.through(tool(), fixed_view()), State::kDetach, now, out);  // the fruit let go on the way
+    Eigen::Isometry3d way = way_.through(tool(), fixed_view());  // the fruit let go on the way
+    turn_ahead(way, now);
+    start_goal(way, State::kDetach, now, out);
   } else if (state_ == State::kGrasp && holding) {
     start_goal(detach_goal(tool(), cfg_.pull_distance, cfg_.twist_angle), State::kDetach, now, out);
   } else if (state_ == State::kGrasp && msg.state == gripper_state_t::STATE_CLOSED) {

@@ -28,6 +28,12 @@ std::optional<Eigen::Isometry3d> Turning::from_retreat(const Eigen::Isometry3d& 
   return g.goal;
 }
 
+std::optional<Eigen::Matrix3d> Turning::ahead(const Fruit& fruit) const {
+  const OrientGoal g = orient_goal(cfg_, cfg_.home_pose, fruit.estimate, fruit.from_viewpoint);
+  if (g.from_viewpoint) return std::nullopt;
+  return g.goal.rotation();
+}
+
 Turning::Blocked Turning::blocked(const std::string& why, const Eigen::Isometry3d& camera, Fruit& fruit) const {
   const std::string name = "fruit " + std::to_string(fruit.id);
   // The aim is a means to get the fruit into the hand image: an arm stopped short of it (a joint limit just

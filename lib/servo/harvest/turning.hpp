@@ -29,6 +29,9 @@ class Turning {
   // is a viewpoint and the tool is farther than retreat_distance from home (the way there from elsewhere, after
   // another viewpoint, may cross the canopy's front): home first. Sets fruit.from_viewpoint.
   std::optional<Eigen::Isometry3d> from_retreat(const Eigen::Isometry3d& tool, Fruit& fruit);
+  // The orientation of the turn from_retreat would make to `fruit` (its aim from home), for a way out that turns
+  // on its way; nullopt for a fruit aimed at from a viewpoint.
+  std::optional<Eigen::Matrix3d> ahead(const Fruit& fruit) const;
   // ORIENT_PD: one step of the law (eq. 6-24), the roll held at home's.
   Twist law_step(const Eigen::Isometry3d& tool, const Eigen::Vector3d& target) {
     return law_.update(tool, target, cfg_.home_pose.rotation().col(0), cfg_.tick_period_s);
