@@ -87,11 +87,15 @@ void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out)
 void HarvestMachine::turn_ahead(Eigen::Isometry3d& way_out, rt::Micros now) const {
   if (!cfg_.turn_while_retreating || !way_.next_from_there() || !fixed_) return;
   FruitLedger ledger = ledger_;
-  if (current_)
-    ledger.record(fruit_outcome_t::PICKED, current_->id, current_->estimate, "", 0.0, tool().translation(), &*current_);
+  if (current_) ledger.use_up_attempts(current_->id);  // in the hand: the fixed view still shows it
   const Selection s = select_fruit(cfg_, *fixed_, ledger, cfg_.home_pose.translation(), now, tool().rotation());
   // The straight line out with a constant-axis rotation: inside the canopy the gripper has turned only a little.
-  if (const auto aim = s.fruit ? turning_.ahead(*s.fruit) : std::nullopt) way_out.linear() = *aim;
+  const auto aim = s.fruit ? turning_.ahead(*s.fruit) : std::nullopt;
+  if (!aim) return;
+  way_out.linear() = *aim;
+  // Near home the rest of the line there is out of the canopy: the way out ends where ORIENT would go.
+  const Eigen::Vector3d home = cfg_.home_pose.translation();
+  if ((way_out.translation() - home).norm() <= cfg_.turn_ahead_home_within) way_out.translation() = home;
 }
 
 void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, MachineOutput& out) {

@@ -61,6 +61,39 @@ TEST(ClosedLoopSequencing, TheNextFruitIsTurnedToStraightFromTheEndOfTheRetreat)
   expect_motion_stopped(loop);
 }
 
+// turn_while_retreating: the way out after the first fruit turns the gripper to the second one's aim as it
+// backs out, so the retreat ends aimed at it and ORIENT has only the rest of the way to home's position to do.
+TEST(ClosedLoopSequencing, TurningWhileRetreatingEndsTheRetreatAimedAtTheNextFruit) {
+  struct Aimed {
+    double angle_at_orient;  // [rad] the gripper axis off the second fruit as ORIENT begins
+    double orient_s;         // ORIENT's duration
+  };
+  const auto run = [](bool turn) {
+    ServoConfig cfg = test_config();
+    cfg.turn_while_retreating = turn;
+    Loop loop(two_fruit(), cfg);
+    loop.start();
+    EXPECT_TRUE(loop.run_until_state(State::kRetreat, 30.0)) << loop.ctrl.machine().summary();
+    EXPECT_TRUE(loop.run_until_state(State::kOrient, 30.0)) << loop.ctrl.machine().summary();
+    const int second = loop.ctrl.machine().current_fruit();
+    const Eigen::Isometry3d tool = loop.arm.tool();
+    const Eigen::Vector3d fruit = loop.spec.fruits[second == 1 ? 0 : 1].position;
+    const Eigen::Vector3d to = (fruit - tool.translation()).normalized();
+    const double angle = std::acos(std::clamp(tool.linear().col(2).dot(to), -1.0, 1.0));
+    const rt::Micros orient_at = first_published(loop, "ORIENT", first_published(loop, "RETREAT"));
+    EXPECT_TRUE(loop.run_until_state(State::kDone, 60.0)) << loop.ctrl.machine().summary();
+    EXPECT_TRUE(loop.world.fruit_picked(1));
+    EXPECT_TRUE(loop.world.fruit_picked(2));
+    expect_within_limits(loop);
+    expect_motion_stopped(loop);
+    return Aimed{angle, rt::to_seconds(first_published(loop, "ACQUIRE", orient_at) - orient_at)};
+  };
+  const Aimed off = run(false), on = run(true);
+  EXPECT_GT(off.angle_at_orient, 0.15);  // the two aims are ~0.3 rad apart
+  EXPECT_LT(on.angle_at_orient, 0.05);
+  EXPECT_LT(on.orient_s, off.orient_s - 0.2) << "ORIENT " << on.orient_s << " s against " << off.orient_s << " s";
+}
+
 // straight_to_next: false is the thesis's sequence, home between fruit; the
 // same tree takes longer.
 TEST(ClosedLoopSequencing, WithoutItTheArmReturnsHomeBetweenFruitAndTakesLonger) {
