@@ -91,11 +91,7 @@ void HarvestMachine::turn_ahead(Eigen::Isometry3d& way_out, rt::Micros now) cons
   const Selection s = select_fruit(cfg_, *fixed_, ledger, cfg_.home_pose.translation(), now, tool().rotation());
   // The straight line out with a constant-axis rotation: inside the canopy the gripper has turned only a little.
   const auto aim = s.fruit ? turning_.ahead(*s.fruit) : std::nullopt;
-  if (!aim) return;
-  way_out.linear() = *aim;
-  // Near home the rest of the line there is out of the canopy: the way out ends where ORIENT would go.
-  const Eigen::Vector3d home = cfg_.home_pose.translation();
-  if ((way_out.translation() - home).norm() <= cfg_.turn_ahead_home_within) way_out.translation() = home;
+  if (aim) way_out = way_.turned(way_out, *aim);
 }
 
 void HarvestMachine::let_go_on_the_way_out(bool goal_under_way, rt::Micros now, MachineOutput& out) {

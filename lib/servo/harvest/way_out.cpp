@@ -15,6 +15,7 @@ WayOut::WayOut(const ServoConfig& cfg, bool straight)
       pull_distance_(cfg.pull_distance),
       retreat_distance_(cfg.retreat_distance),
       twist_angle_(cfg.twist_angle),
+      turn_home_within_(cfg.turn_ahead_home_within),
       home_(cfg.home_pose) {}
 
 Eigen::Isometry3d WayOut::retreat(const Eigen::Isometry3d& from, double at_least) const {
@@ -36,6 +37,13 @@ WayOut::Start WayOut::start(const Eigen::Isometry3d& tool, const GoalTolerances&
   if (out_of_canopy(home_, retreat_distance_, tool.translation())) return {Start::Action::kReturn, home_};
   next_from_there_ = false;  // from an unknown place: home first
   return {Start::Action::kRetreat, back_along_axis(tool, std::nullopt, retreat_distance_)};
+}
+
+Eigen::Isometry3d WayOut::turned(const Eigen::Isometry3d& way_out, const Eigen::Matrix3d& aim) const {
+  Eigen::Isometry3d way = way_out;
+  way.linear() = aim;
+  if ((way.translation() - home_.translation()).norm() <= turn_home_within_) way.translation() = home_.translation();
+  return way;
 }
 
 Eigen::Isometry3d WayOut::through(const Eigen::Isometry3d& grasped, const targets_t* fixed) {

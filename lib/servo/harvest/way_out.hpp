@@ -56,6 +56,10 @@ class WayOut {
   };
   Start start(const Eigen::Isometry3d& tool, const GoalTolerances& at_home);
 
+  // turn_while_retreating: `way_out` turned to `aim` (the next fruit's aim from home); one that would end within
+  // turn_ahead_home_within of home ends there, ORIENT's goal (the rest of the line there is out of the canopy).
+  Eigen::Isometry3d turned(const Eigen::Isometry3d& way_out, const Eigen::Matrix3d& aim) const;
+
   // pull_through: the grasp's way out is one goal to the retreat's end (the fruit let go pull_distance back) ...
   bool pulls_through() const { return pull_through_ && approach_from_.has_value(); }
   // One motion from the fingers' hold at `grasped` to the retreat's end (its goal as if from where the pull would
@@ -69,7 +73,7 @@ class WayOut {
 
  private:
   bool straight_, home_after_joint_limit_, pull_through_;
-  double retreat_clearance_, palm_offset_, pull_distance_, retreat_distance_, twist_angle_;
+  double retreat_clearance_, palm_offset_, pull_distance_, retreat_distance_, twist_angle_, turn_home_within_;
   Eigen::Isometry3d home_;
   std::optional<Eigen::Vector3d> approach_from_;
   std::optional<Eigen::Isometry3d> pull_from_;  // where the fingers took hold (pull_through, DETACH only)

@@ -115,6 +115,24 @@ TEST(WayOut, ThePullIsOverOncePullDistanceBackAlongTheGraspAxis) {
   EXPECT_FALSE(at_rest.pulls_through());
 }
 
+// turn_while_retreating: the way out keeps its end and takes the next aim; an end within turn_ahead_home_within
+// (0.1 m) of home's position moves there, the aim kept (home (0.5, 0, 0)).
+TEST(WayOut, AWayOutTurnedToTheNextAimEndsAtHomeOnlyWhenItWouldEndNearIt) {
+  ServoConfig cfg;
+  cfg.home_pose = at(0.5, 0.0, 0.0);
+  WayOut w(cfg, true);
+  const Eigen::Matrix3d aim = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Isometry3d near = w.turned(at(0.5, 0.06, 0.07), aim);  // 92 mm from home
+  EXPECT_TRUE(near.translation().isApprox(cfg.home_pose.translation(), 1e-12));
+  EXPECT_TRUE(near.rotation().isApprox(aim, 1e-12));
+  const Eigen::Isometry3d far = w.turned(at(0.5, 0.08, 0.07), aim);  // 106 mm from home
+  EXPECT_TRUE(far.translation().isApprox(Eigen::Vector3d(0.5, 0.08, 0.07), 1e-12));
+  EXPECT_TRUE(far.rotation().isApprox(aim, 1e-12));
+  cfg.turn_ahead_home_within = 0.0;
+  const Eigen::Isometry3d kept = WayOut(cfg, true).turned(at(0.5, 0.06, 0.07), aim);
+  EXPECT_TRUE(kept.translation().isApprox(Eigen::Vector3d(0.5, 0.06, 0.07), 1e-12));
+}
+
 // START: at home (within the tolerances) SELECT; within retreat_distance (0.15 m) of home straight home; farther
 // (after an e-stop next to the canopy) back along the tool axis by retreat_distance, then home (not the next fruit
 // from there).
