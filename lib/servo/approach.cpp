@@ -45,13 +45,20 @@ ApproachOutput ReconstructionApproach::update(const ApproachInput& in) {
       // of its positions over the window, seen from the tool now. Earlier
       // views are left out: far off the image centre, their depth error moves
       // them sideways.
-      if (seen_.empty() || in.pixel->utime > seen_.back().utime) seen_.push_back({in.pixel->utime, seen_base});
-      while (seen_.front().utime < in.pixel->utime - rt::from_seconds(window)) seen_.pop_front();
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (const auto& s : seen_) mean += s.base;
-      const Eigen::Vector3d q = tool_inv * (mean / static_cast<double>(seen_.size()));
-      e.x() = q.x();
-      e.y() = q.y();
+      // With whole_views a fruit cut by the image border or filling it (the last centimetres) is not centred on:
+      // the detector's centre of its visible part lies toward the image centre, up to a fruit's radius off; the
+      // whole views before it stay the mean, counted back from the newest of them.
+      const bool enters = in.pixel_whole || !gains_.whole_views;
+      if (enters && (seen_.empty() || in.pixel->utime > seen_.back().utime))
+        seen_.push_back({in.pixel->utime, seen_base});
+      if (!seen_.empty()) {
+        while (seen_.front().utime < seen_.back().utime - rt::from_seconds(window)) seen_.pop_front();
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (const auto& s : seen_) mean += s.base;
+        const Eigen::Vector3d q = tool_inv * (mean / static_cast<double>(seen_.size()));
+        e.x() = q.x();
+        e.y() = q.y();
+      }
     }
     // Derivative only from new measurements, low-pass filtered (images are noisy).
     if (last_utime_ && in.pixel->utime > *last_utime_) {

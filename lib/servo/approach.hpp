@@ -42,6 +42,9 @@ struct ApproachInput {
   std::optional<double> forward_speed;
   // Under IR guidance: centre on the fruit's mean position over this long (unset: gains.sway_window).
   std::optional<double> mean_window;
+  // The pixel's detection is whole (clear of the image border, not filling the image): with gains.whole_views,
+  // only whole views enter the mean.
+  bool pixel_whole = true;
 };
 
 struct ApproachOutput {

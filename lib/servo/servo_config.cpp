@@ -61,6 +61,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.ir_vision_agreement = n.get(k::ir_vision_agreement);
   c.front_fruit_tolerance = n.get(k::front_fruit_tolerance);
   c.grasp_advance = n.get(k::grasp_advance);
+  c.grasp_stop_at_joint_limit = n.get(k::grasp_stop_at_joint_limit);
   c.ir_fold_near = n.get(k::ir_fold_near);
   c.ir_fold_jump = n.get(k::ir_fold_jump);
   c.ir_progress_step = n.get(k::ir_progress_step);
@@ -194,6 +195,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.gains.centring_tolerance = g.get(k::gains::centring_tolerance);
   c.gains.sway_window = g.get(k::gains::sway_window);
   c.gains.still_window = g.get(k::gains::still_window);
+  c.gains.whole_views = g.get(k::gains::whole_views);
   c.gains.kp_orient = g.get(k::gains::kp_orient);
   c.gains.kd_orient = g.get(k::gains::kd_orient);
 
@@ -230,7 +232,7 @@ std::vector<config::Section> ServoConfig::schema() {
           k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance, k::ir_approach_speed,
           k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel, k::ir_overshoot,
           k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement,
-          k::front_fruit_tolerance, k::grasp_advance, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
+          k::front_fruit_tolerance, k::grasp_advance, k::grasp_stop_at_joint_limit, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
           k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::gone_in_distance, k::retreat_clearance,
           k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
           k::pull_through, k::turn_while_retreating, k::turn_ahead_home_within, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
@@ -244,7 +246,7 @@ std::vector<config::Section> ServoConfig::schema() {
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),
       config::section("servo_controller.drop_pose", where, k::pose::drop_position, k::pose::drop_orientation),
       config::section("servo_controller.gains", where, g::kp_lateral, g::kd_lateral, g::kp_depth, g::kd_depth,
-                      g::derivative_filter, g::centring_tolerance, g::sway_window, g::still_window, g::kp_orient,
+                      g::derivative_filter, g::centring_tolerance, g::sway_window, g::still_window, g::whole_views, g::kp_orient,
                       g::kd_orient),
       config::section("servo_controller.timeouts_s", where, t::select, t::motion, t::stall, t::acquire, t::lost,
                       t::reacquire, t::approach, t::ir_approach, t::grasp, t::release, t::robot_state, t::ir_stale),

@@ -38,6 +38,7 @@ inline constexpr Key<double> ir_surface_travel{"ir_surface_travel", 0.03, {1e-3,
 inline constexpr Key<double> ir_surface_tolerance{"ir_surface_tolerance", 0.02, {1e-3, 0.2}, "m", "... its readings plus the tool's advance agreeing within this"};
 inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.05, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
 inline constexpr Key<double> front_fruit_tolerance{"front_fruit_tolerance", 0.015, {0.0, 1e6}, "m", "a fruit in front filling the view is closed on only this near the gripper axis"};
+inline constexpr Key<bool> grasp_stop_at_joint_limit{"grasp_stop_at_joint_limit", true, {}, "", "a joint held at its limit (ROBOT_STATE kFlagJointLimit) as the gripper closes stops grasp_advance there: the link clips the twist and the tool goes sideways"};
 inline constexpr Key<double> grasp_advance{"grasp_advance", 0.015, {0.0, 0.05}, "m", "the arm goes on this far along the tool axis while the gripper closes"};
 inline constexpr Key<double> ir_fold_near{"ir_fold_near", 0.02, {0.0, 0.5}, "m", "a reading this near above the grasp range ..."};
 inline constexpr Key<double> ir_fold_jump{"ir_fold_jump", 0.03, {1e-3, 1.0}, "m", "... then one this much farther: the sensor folded back (fruit inside)"};
@@ -114,6 +115,7 @@ inline constexpr Key<double> kd_depth{"kd_depth", 0.0, {0.0, 1e6}, "s", "its der
 inline constexpr Key<double> derivative_filter{"derivative_filter", 0.5, {0.0, 1.0}, "", "low-pass weight of the newest error derivative"};
 inline constexpr Key<double> centring_tolerance{"centring_tolerance", 0.005, {0.0, 1e6}, "m", "advance no faster than the centring brings the fruit within this of the gripper axis (0: no bound)"};
 inline constexpr Key<double> sway_window{"sway_window", 2.5, {0.0, 1e6}, "s", "under IR guidance, centre on the fruit's mean position over this long (0: its newest)"};
+inline constexpr Key<bool> whole_views{"whole_views", false, {}, "", "under IR guidance, a view of the fruit cut by the hand image's border or filling it (not whole: its centre is pulled toward the image centre) is not centred on: the mean of the window's whole views stays, the window counted back from the newest whole view (false: every view)"};
 inline constexpr Key<double> still_window{"still_window", 0.3, {0.0, 1e6}, "s", "... but while the fixed camera sees the tree still (sway.tree_*), over this long instead (0: its newest; the nearest views are the best, the oldest were taken up to 45 cm away)"};
 inline constexpr Key<double> kp_orient{"kp_orient", 2.0, {0.01, 100.0}, "1/s", "orient_law thesis_pd: gain on the aim angles (eq. 6-24)"};
 inline constexpr Key<double> kd_orient{"kd_orient", 0.05, {0.0, 1e6}, "s", "its derivative gain"};
@@ -200,6 +202,7 @@ struct Gains {
   // nearly two.
   double sway_window = servo_keys::gains::sway_window.fallback;
   double still_window = servo_keys::gains::still_window.fallback;
+  bool whole_views = servo_keys::gains::whole_views.fallback;
   // orient_law thesis_pd: omega = kp_orient e + kd_orient de/dt on the angles of eq. 6-19, 6-20, 6-23 (eq. 6-24)
   double kp_orient = servo_keys::gains::kp_orient.fallback;   // [1/s]
   double kd_orient = servo_keys::gains::kd_orient.fallback;  // [s]
@@ -252,6 +255,7 @@ struct ServoConfig {
   // [m] the arm goes on this far along the tool axis (at ir_min_speed) while
   // the gripper closes, then stops (0: stops at once, as the thesis does)
   double grasp_advance = servo_keys::grasp_advance.fallback;
+  bool grasp_stop_at_joint_limit = servo_keys::grasp_stop_at_joint_limit.fallback;
   // A reading within ir_fold_near above the grasp range followed by one
   // ir_fold_jump farther is the sensor folding back (the fruit is inside).
   double ir_fold_near = servo_keys::ir_fold_near.fallback;         // [m]

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "arm/fault_flags.hpp"
 #include "servo/geometry.hpp"
 #include "servo/harvest/status.hpp"
 
@@ -20,6 +21,8 @@ void GoingIn::new_fruit() {
 
 void GoingIn::on_robot_state(const robot_state_t& msg) {
   if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
+  joint_at_limit_ = (msg.fault_flags & arm::kFlagJointLimit) != 0;
+  if (joint_at_limit_) ir_.joint_at_limit();
 }
 
 std::optional<Eigen::Isometry3d> GoingIn::camera_at(rt::Micros utime) const {
@@ -113,6 +116,7 @@ GoingIn::Step GoingIn::ir(rt::Micros now, const Eigen::Isometry3d& tool, const E
       if (!c.decision.close) break;
       word(c.note);
       ir_.closing_at(tool.translation());
+      if (joint_at_limit_) ir_.joint_at_limit();
       close_wait_since_.reset();
       s.action = Step::Action::kClose;
       break;
@@ -125,7 +129,7 @@ GoingIn::Step GoingIn::ir(rt::Micros now, const Eigen::Isometry3d& tool, const E
     case IrStep::Action::kAdvance:
       s.twist = approach_
                     ->update({now, tool, camera, fruit.estimate, hand_pixel(now), i.forward_speed,
-                              wind_.tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window})
+                              wind_.tree_still(now) ? cfg_.gains.still_window : cfg_.gains.sway_window, hand_.whole()})
                     .twist;
       break;
   }

@@ -194,7 +194,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
 
 std::optional<Twist> IrGuidance::grasp_twist(const Eigen::Isometry3d& tool) const {
   const Eigen::Vector3d axis = tool.rotation().col(2);
-  if ((tool.translation() - grasp_from_).dot(axis) >= cfg_.grasp_advance) return std::nullopt;
+  if (advance_stopped_ || (tool.translation() - grasp_from_).dot(axis) >= cfg_.grasp_advance) return std::nullopt;
   Twist forward;
   forward.linear = cfg_.ir_min_speed * axis;
   return forward;

@@ -113,6 +113,34 @@ TEST(ReconstructionApproach, UnderIrGuidanceCentresOnTheMiddleOfTheSway) {
   EXPECT_LT(std::abs(follow(g, 0.1, 2.5).error.x()), 0.001);
 }
 
+// A still fruit 10 mm off the axis, 0.1 m ahead, seen whole for 0.3 s at 30 Hz, then for 1 s filling the image: the
+// detector's centre of its visible part lies toward the image centre (here by 6 mm at the fruit's depth: it looks
+// 4 mm off the axis). With gains.whole_views the whole views stay the mean (10 mm, though a second has passed: the
+// window counts back from the newest whole view); without, the cut views take over.
+TEST(ReconstructionApproach, WithWholeViewsAFruitFillingTheImageIsNotCentredOn) {
+  Gains g;
+  g.kd_lateral = 0.0;
+  auto follow = [](const Gains& gains) {
+    const geometry::CameraModel k = pinhole();
+    ReconstructionApproach a(gains, k);
+    ApproachOutput out;
+    for (int i = 0; i <= 39; ++i) {
+      ApproachInput in = at_fruit(0.01, k, 0.1);
+      in.now = rt::from_seconds(i / 30.0);
+      in.pixel->utime = in.now;
+      in.mean_window = 0.3;
+      in.pixel_whole = i < 9;
+      if (!in.pixel_whole) in.pixel->u -= 0.006 / 0.1 * k.fx;
+      out = a.update(in);
+    }
+    return out;
+  };
+  g.whole_views = true;
+  EXPECT_NEAR(follow(g).error.x(), 0.01, 1e-9);
+  g.whole_views = false;
+  EXPECT_NEAR(follow(g).error.x(), 0.004, 1e-9);  // the window's nine views, all cut
+}
+
 // The camera beside the gripper axis and tilted (hand-eye not the identity):
 // the fruit is centred on the gripper axis, not on the optical axis.
 // Hand-worked: tool at the origin looking along base z; camera 20 mm along

@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "arm/fault_flags.hpp"
+
 namespace harvest::servo {
 namespace {
 
@@ -63,6 +65,8 @@ ir_range_t reading(double range) {
 }
 
 struct Fixture {
+  Fixture() = default;
+  explicit Fixture(const ServoConfig& c) : cfg(c) {}
   ServoConfig cfg = config();
   GoingIn in{cfg, make_approach(cfg)};
   // The fruit `ahead` of the tool at `along` from home, followed in a hand image taken in at `now`.
@@ -153,6 +157,30 @@ TEST(GoingIn, ClosesWhenTheIrReadsTheFruitInsideThenGraspsOnAlongTheAxis) {
   ASSERT_TRUE(forward.has_value());
   EXPECT_NEAR(forward->linear.y(), x.cfg.ir_min_speed, 1e-12);
   EXPECT_FALSE(x.in.grasp_twist(tool_ahead(x.cfg, 0.4 + x.cfg.grasp_advance + 1e-3)).has_value());
+}
+
+// grasp_stop_at_joint_limit: a ROBOT_STATE with a joint at its limit, at the close or during it, stops the advance
+// (IrGuidance, AJointAtItsLimitStopsTheAdvanceWhileItCloses); one without does not.
+TEST(GoingIn, ARobotStateWithAJointAtItsLimitStopsTheGraspsAdvance) {
+  for (const bool at_limit_before : {false, true}) {
+    ServoConfig cfg = config();
+    cfg.grasp_stop_at_joint_limit = true;
+    Fixture x(cfg);
+    ASSERT_EQ(x.approach(0.4, 0.05).action, GoingIn::Step::Action::kIrBegins);
+    const Eigen::Isometry3d tool = tool_ahead(x.cfg, 0.4);
+    robot_state_t st{};
+    x.in.on_robot_state(st);
+    if (at_limit_before) {
+      st.fault_flags = arm::kFlagJointLimit;
+      x.in.on_robot_state(st);
+    }
+    x.in.on_ir(reading(0.015), kT + 10'000, true);
+    ASSERT_EQ(x.in.ir(kT + 20'000, tool, tool, fruit(x.cfg, 0.45)).action, GoingIn::Step::Action::kClose);
+    EXPECT_EQ(x.in.grasp_twist(tool).has_value(), !at_limit_before);
+    st.fault_flags = arm::kFlagJointLimit;
+    x.in.on_robot_state(st);
+    EXPECT_FALSE(x.in.grasp_twist(tool).has_value());
+  }
 }
 
 // A back-off retraces the axis to abreast of where the first attempt began; the second attempt is the last.

@@ -325,5 +325,29 @@ TEST(IrGuidance, TheGripperGoesOnAlongItsAxisWhileItCloses) {
   EXPECT_FALSE(g.grasp_twist(tool_at(0.015)).has_value());  // grasp_advance reached: stop
 }
 
+// grasp_stop_at_joint_limit: a joint held at its limit during the close stops the advance for the rest of it (on a
+// tree the clipped axial twist took the tool 6-11 mm sideways while the fingers closed, from 15-20 mm off a fruit to
+// 26-30: knocked off); the next close advances again. Off: the limit changes nothing.
+TEST(IrGuidance, AJointAtItsLimitStopsTheAdvanceWhileItCloses) {
+  ServoConfig cfg;
+  cfg.grasp_stop_at_joint_limit = true;
+  IrGuidance g{cfg};
+  g.begin(kTool.translation(), kT);
+  g.joint_at_limit();  // before the close: forgotten when it begins
+  g.closing_at(kTool.translation());
+  ASSERT_TRUE(g.grasp_twist(tool_at(0.005)).has_value());
+  g.joint_at_limit();
+  EXPECT_FALSE(g.grasp_twist(tool_at(0.005)).has_value());
+  EXPECT_FALSE(g.grasp_twist(tool_at(0.006)).has_value());  // for good, though the limit may clear
+  g.closing_at(kTool.translation());
+  EXPECT_TRUE(g.grasp_twist(kTool).has_value());
+  cfg.grasp_stop_at_joint_limit = false;
+  IrGuidance off{cfg};
+  off.begin(kTool.translation(), kT);
+  off.closing_at(kTool.translation());
+  off.joint_at_limit();
+  EXPECT_TRUE(off.grasp_twist(tool_at(0.005)).has_value());
+}
+
 }  // namespace
 }  // namespace harvest::servo
