@@ -21,8 +21,7 @@ void GoingIn::new_fruit() {
 
 void GoingIn::on_robot_state(const robot_state_t& msg) {
   if (cfg_.image_pose_gap > 0.0) camera_poses_.add(msg.header.utime, to_isometry(msg.camera_pose));
-  joint_at_limit_ = (msg.fault_flags & arm::kFlagJointLimit) != 0;
-  if (joint_at_limit_) ir_.joint_at_limit();
+  ir_.on_joint_limit((msg.fault_flags & arm::kFlagJointLimit) != 0);
 }
 
 std::optional<Eigen::Isometry3d> GoingIn::camera_at(rt::Micros utime) const {
@@ -116,7 +115,6 @@ GoingIn::Step GoingIn::ir(rt::Micros now, const Eigen::Isometry3d& tool, const E
       if (!c.decision.close) break;
       word(c.note);
       ir_.closing_at(tool.translation());
-      if (joint_at_limit_) ir_.joint_at_limit();
       close_wait_since_.reset();
       s.action = Step::Action::kClose;
       break;

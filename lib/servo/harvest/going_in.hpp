@@ -106,7 +106,6 @@ class GoingIn {
   IrGuidance ir_;
   WindWatch wind_;                              // the fruit's sway and the tree's, the hold, the timed close
   std::optional<rt::Micros> close_wait_since_;  // IR said "inside", the close waits for the swaying fruit
-  bool joint_at_limit_ = false;                 // the newest ROBOT_STATE has a joint at its limit
   geometry::PoseHistory camera_poses_{64};      // ROBOT_STATE camera poses by their utime (about 0.6 s at 100 Hz)
 };
 

@@ -66,11 +66,15 @@ class IrGuidance {
   // The gripper is told to close with the tool at `tool` ...
   void closing_at(const Eigen::Vector3d& tool) {
     grasp_from_ = tool;
-    advance_stopped_ = false;
+    advance_stopped_ = cfg_.grasp_stop_at_joint_limit && joint_at_limit_;
   }
-  // ... a joint held at its limit (ROBOT_STATE kFlagJointLimit) while it closes stops the advance for the rest of
-  // the close (grasp_stop_at_joint_limit): the robot link clips the twist and the tool goes sideways instead.
-  void joint_at_limit() { advance_stopped_ = cfg_.grasp_stop_at_joint_limit; }
+  // ... every ROBOT_STATE: a joint held at its limit (kFlagJointLimit) as it closes or while it does stops the
+  // advance for the rest of the close (grasp_stop_at_joint_limit): the robot link clips the twist and the tool
+  // goes sideways instead.
+  void on_joint_limit(bool at_limit) {
+    joint_at_limit_ = at_limit;
+    if (at_limit) advance_stopped_ = cfg_.grasp_stop_at_joint_limit;
+  }
   // ... GRASP: on along the tool axis at ir_min_speed until grasp_advance
   // past there, then STOP (nullopt). The IR folds back nearer than its peak,
   // so the grasp reading comes with the fruit centre still ~2 cm ahead of the
@@ -106,6 +110,7 @@ class IrGuidance {
   rt::Micros surface_rx_ = -1;  // the reading last tracked
   Eigen::Vector3d start_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d grasp_from_ = Eigen::Vector3d::Zero();
+  bool joint_at_limit_ = false;   // the newest ROBOT_STATE has a joint at its limit
   bool advance_stopped_ = false;  // GRASP: a joint met its limit since the close began
 };
 

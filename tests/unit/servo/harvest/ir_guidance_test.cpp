@@ -333,10 +333,12 @@ TEST(IrGuidance, AJointAtItsLimitStopsTheAdvanceWhileItCloses) {
   cfg.grasp_stop_at_joint_limit = true;
   IrGuidance g{cfg};
   g.begin(kTool.translation(), kT);
-  g.joint_at_limit();  // before the close: forgotten when it begins
+  g.on_joint_limit(true);  // before the close, then clear: forgotten when it begins
+  g.on_joint_limit(false);
   g.closing_at(kTool.translation());
   ASSERT_TRUE(g.grasp_twist(tool_at(0.005)).has_value());
-  g.joint_at_limit();
+  g.on_joint_limit(true);
+  g.on_joint_limit(false);
   EXPECT_FALSE(g.grasp_twist(tool_at(0.005)).has_value());
   EXPECT_FALSE(g.grasp_twist(tool_at(0.006)).has_value());  // for good, though the limit may clear
   g.closing_at(kTool.translation());
@@ -345,7 +347,7 @@ TEST(IrGuidance, AJointAtItsLimitStopsTheAdvanceWhileItCloses) {
   IrGuidance off{cfg};
   off.begin(kTool.translation(), kT);
   off.closing_at(kTool.translation());
-  off.joint_at_limit();
+  off.on_joint_limit(true);
   EXPECT_TRUE(off.grasp_twist(tool_at(0.005)).has_value());
 }
 
