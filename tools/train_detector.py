@@ -26,8 +26,9 @@ fold k on the other folds' held-out photos only (nested: fold k's boxes never
 choose the threshold it is scored at; folds.csv carries it per image), for
 the final model on all folds' held-out photos (set it as detector.threshold).
 
-Tried and not kept (docs/perception.md, off by default): --jitter strong, --mosaic SHARE; --train-seed
-moves the training seeds and keeps the folds.
+Tried and not kept (docs/perception.md, off by default): --jitter strong, --mosaic SHARE, distillation from
+other seeds' models (--teachers DIR, --teacher-seeds S,...); --train-seed moves the training seeds and keeps
+the folds.
 """
 import argparse
 import csv
@@ -66,6 +67,15 @@ class FruitNet(nn.Module):
 
     def forward(self, x):
         return self.head(self.body(x))
+
+
+def load_teacher(path):
+    """An exported FruitNet (Conv and Relu nodes) as a function of a batch, for distillation."""
+    import onnx
+    from fruit_net_parity import run_onnx_in_torch
+
+    model = onnx.load(path)
+    return lambda x: run_onnx_in_torch(model, x)
 
 
 def normalise(rgb_u8):
@@ -191,8 +201,11 @@ def focal(logit, heat, ignore):
     return (lp + ln) / pos.sum().clamp(min=1)
 
 
-def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0.0, strong=False, mosaic_share=0.0):
-    """`sim`: rendered frames (harvest-sim-frames), drawn for a share `sim_share` of each batch's samples."""
+def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0.0, strong=False, mosaic_share=0.0,
+          teachers=()):
+    """`sim`: rendered frames (harvest-sim-frames), drawn for a share `sim_share` of each batch's samples.
+    `teachers`: networks whose mean heatmap and mask probabilities the net also learns (distillation: the
+    teachers' ensemble in one network's time); the boxes' losses stay."""
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     net = FruitNet()
@@ -217,6 +230,18 @@ def train(items, steps, seed, crop=160, batch=12, log=print, sim=(), sim_share=0
         ld = (F.smooth_l1_loss(out[:, 1], diam, reduction="none", beta=0.1) * wd).sum() / wd.sum().clamp(min=1)
         lm = (F.binary_cross_entropy_with_logits(out[:, 2], mask, reduction="none") * (1 - ignore)).mean()
         loss = lh + 2 * ld + lm
+        if teachers:
+            with torch.no_grad():
+                tp = torch.stack([torch.sigmoid(t(x)[:, [0, 2]]) for t in teachers]).mean(0)
+            # Weighted by the larger of the two probabilities: where both see background there is nothing to
+            # learn (an unweighted sum over every cell outweighed the boxes' loss 100 to 1); per positive, as focal.
+            sp = torch.sigmoid(out[:, 0]).detach()
+            kh = F.binary_cross_entropy_with_logits(out[:, 0], tp[:, 0], reduction="none") * torch.maximum(sp, tp[:, 0])
+            kh = (kh * (1 - ignore)).sum() / heat.eq(1).float().sum().clamp(min=1)
+            km = (F.binary_cross_entropy_with_logits(out[:, 2], tp[:, 1], reduction="none") * (1 - ignore)).mean()
+            loss = loss + kh + km
+            if step % 100 == 0 or step == steps - 1:
+                log(f"  step {step:5d} distillation: heat {kh.item():.3f} mask {km.item():.3f}")
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -345,6 +370,12 @@ def main():
     ap.add_argument("--mosaic", type=float, default=0.0,
                     help="share of photo samples that are a 2x2 mosaic of four photos' crops (0: none)")
     ap.add_argument("--sim-test", help="folder of other rendered frames: every model is also scored on them")
+    ap.add_argument("--teachers", action="append", default=[],
+                    help="folder of a model trained with the same folds (its fruit_net.fold<k>.onnx for fold k, "
+                         "fruit_net.onnx for the final model); each model also learns the teachers' mean maps")
+    ap.add_argument("--teacher-seeds", default="",
+                    help="comma-separated training seeds: before each model, train one teacher per seed on the same "
+                         "photos (as --train-seed S would: fold k's with S + 1 + k) and distill them into it")
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
     random.seed(a.seed)
@@ -364,8 +395,18 @@ def main():
             f"diameter error median {np.median(de) if de else float('nan'):.3f} D")
 
     ts = a.seed if a.train_seed is None else a.train_seed
-    train_with = lambda photos, seed: train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share,
-                                              strong=a.jitter == "strong", mosaic_share=a.mosaic)
+    def train_with(photos, seed, name, fold_offset=0):
+        """A model (seed `seed`) on `photos`, distilled from the teachers given for it (folders' `name`, and
+        --teacher-seeds trained here on the same photos)."""
+        teachers = [load_teacher(os.path.join(d, name)) for d in a.teachers]
+        for s in (int(v) for v in a.teacher_seeds.split(",") if v.strip()):
+            log(f"teacher, seed {s + fold_offset}")
+            teachers.append(train(photos, a.steps, s + fold_offset, log=log, sim=sim, sim_share=a.sim_share,
+                                  strong=a.jitter == "strong", mosaic_share=a.mosaic))
+        if teachers:
+            log(f"distilling {len(teachers)} teachers")
+        return train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share, strong=a.jitter == "strong",
+                     mosaic_share=a.mosaic, teachers=teachers)
     if a.folds:
         order = list(range(len(items)))
         random.Random(a.seed).shuffle(order)
@@ -380,7 +421,8 @@ def main():
         for k in range(a.folds):
             test = [items[i] for i in sorted(order[k :: a.folds])]
             log(f"fold {k}: {len(test)} test photos: " + " ".join(it[0] for it in test))
-            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], ts + 1 + k)
+            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], ts + 1 + k,
+                             f"fruit_net.fold{k}.onnx", fold_offset=1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
             preds = predict(net, test)
             per_fold.append({t: score(net, test, t, preds)[:3] for t in THRESHOLDS})
@@ -409,7 +451,7 @@ def main():
             " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")
     if a.folds_only:
         return
-    net = train_with(items, ts)
+    net = train_with(items, ts, "fruit_net.onnx")
     export(net, a.out)
     if sim_test:
         report("final model on rendered frames", score(net, sim_test))
