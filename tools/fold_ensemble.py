@@ -31,11 +31,14 @@ def visible(out, u, v, d):
     return float(m[inside].mean()) if inside.any() else 0.0
 
 
-def combine(outs):
-    """Maps of several models: mean probabilities (back to logits) and mean log diameter."""
+def combine(outs, logits=False):
+    """Maps of several models: mean probabilities (back to logits), or mean logits (what one merged network,
+    tools/merge_models.py, computes), and mean log diameter."""
     if len(outs) == 1:
         return outs[0]
     o = torch.stack(outs)
+    if logits:
+        return o.mean(0)
     logit = lambda p: torch.logit(p.clamp(1e-6, 1 - 1e-6))
     return torch.stack([logit(torch.sigmoid(o[:, 0]).mean(0)), o[:, 1].mean(0), logit(torch.sigmoid(o[:, 2]).mean(0))])
 
@@ -47,6 +50,7 @@ def main():
     ap.add_argument("--folds", type=int, default=3)
     ap.add_argument("--seed", type=int, default=19, help="the folds' seed (train_detector.py --seed)")
     ap.add_argument("--score-visible", action="store_true", help="confidence sqrt(peak x visible fraction)")
+    ap.add_argument("--logit-mean", action="store_true", help="average the logits, not the probabilities")
     a = ap.parse_args()
     torch.set_num_threads(1)
     items = td.load(a.data, 320)
@@ -62,7 +66,7 @@ def main():
     def evaluate(dirs):
         counts = {t: {} for t in td.THRESHOLDS}  # threshold -> photo -> (tp, detections, fruit)
         for i, item in enumerate(items):
-            out = combine([maps[d][i] for d in dirs])
+            out = combine([maps[d][i] for d in dirs], a.logit_mean)
             dets = td.decode(out, min(td.THRESHOLDS))
             if a.score_visible:
                 dets = [(u, v, dd, math.sqrt(s * visible(out, u, v, dd))) for u, v, dd, s in dets]

@@ -7,8 +7,10 @@
   the C++ test requires OpenCV dnn to give the same within 1e-4,
 - wrong_shape.onnx: a valid ONNX net with 2 output maps at full resolution (a model of the wrong shape).
 
-  /usr/bin/python3 tools/fruit_net_parity.py --model config/vision/models/fruit_net.onnx --out tests/data/vision
-Re-run whenever the committed model changes.
+  /usr/bin/python3 tools/fruit_net_parity.py --model config/vision/models/fruit_net.onnx --out tests/unit/vision/data
+  /usr/bin/python3 tools/fruit_net_parity.py --model config/vision/models/fruit_net_x4.onnx \
+      --out tests/unit/vision/data --name fruit_net_x4_parity
+Re-run whenever a committed model changes.
 """
 import argparse
 import os
@@ -46,6 +48,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", required=True)
     ap.add_argument("--out", required=True, help="folder for the test data")
+    ap.add_argument("--name", default="fruit_net_parity",
+                    help="the output's file name (NAME.txt); another than the default writes only that file, for a "
+                         "second model on the same image (the merged ensemble: fruit_net_x4_parity)")
     a = ap.parse_args()
     torch.set_num_threads(1)
     os.makedirs(a.out, exist_ok=True)
@@ -56,17 +61,21 @@ def main():
     ys, xs = np.mgrid[0:h, 0:w]
     img[(xs - 40) ** 2 + (ys - 22) ** 2 < 14**2] = [230, 140, 30]
     img = img.astype(np.uint8)
-    Image.fromarray(img).save(os.path.join(a.out, "fruit_net_parity.png"))
+    first = a.name == "fruit_net_parity"
+    if first:
+        Image.fromarray(img).save(os.path.join(a.out, "fruit_net_parity.png"))
     x = torch.from_numpy(img.astype(np.float32) / 127.5 - 1.0).permute(2, 0, 1)[None]
     with torch.no_grad():
         y = run_onnx_in_torch(onnx.load(a.model), x)
-    with open(os.path.join(a.out, "fruit_net_parity.txt"), "w") as f:
+    with open(os.path.join(a.out, a.name + ".txt"), "w") as f:
         f.write(" ".join(str(s) for s in y.shape) + "\n")
         f.write("\n".join(f"{v:.9g}" for v in y.flatten().tolist()) + "\n")
+    print(f"output {tuple(y.shape)}, range {float(y.min()):.4f} .. {float(y.max()):.4f}")
+    if not first:
+        return
     torch.onnx.export(torch.nn.Conv2d(3, 2, 1), torch.zeros(1, 3, 64, 64), os.path.join(a.out, "wrong_shape.onnx"),
                       opset_version=11, input_names=["image"], output_names=["maps"],
                       dynamic_axes={"image": {2: "h", 3: "w"}, "maps": {2: "h", 3: "w"}})
-    print(f"output {tuple(y.shape)}, range {float(y.min()):.4f} .. {float(y.max()):.4f}")
 
 
 if __name__ == "__main__":

@@ -333,6 +333,16 @@ void BM_LearnedMode320x240(benchmark::State& state) {
 }
 BENCHMARK(BM_LearnedMode320x240)->Unit(benchmark::kMicrosecond);
 
+// The photo configuration's merged four-network ensemble (tools/merge_models.py) on the same frame.
+void BM_LearnedEnsemble320x240(benchmark::State& state) {
+  const cv::Mat3b img = make_tree_frame();
+  FruitDetector det(DetectorConfig::learned_mode(HARVEST_FRUIT_NET_X4), 833.57 / 2, 767.02 / 2);
+  std::size_t fruits = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(fruits = det.detect(img).fruits.size());
+  state.counters["fruits"] = static_cast<double>(fruits);
+}
+BENCHMARK(BM_LearnedEnsemble320x240)->Unit(benchmark::kMicrosecond);
+
 // Arg: the width the network runs at.
 void BM_LearnedMode640x480(benchmark::State& state) {
   const cv::Mat3b img = make_frame();

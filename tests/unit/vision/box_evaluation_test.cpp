@@ -113,6 +113,7 @@ TEST(ShippedConfig, DetectorFilesLoadWithoutUnknownKeys) {
   const DetectorNodeConfig p = DetectorNodeConfig::from_yaml(photos.root());
   EXPECT_NO_THROW(photos.check_unused());
   EXPECT_EQ(p.detector.mode, DetectorConfig::Mode::learned);  // the colour keys serve --set detector.mode=canopy
+  EXPECT_EQ(p.detector.learned.model.filename(), "fruit_net_x4.onnx");  // the merged ensemble, found and loaded
   EXPECT_EQ(p.detector.thresholds.cr_max, 150);
   EXPECT_EQ(p.detector.min_area_px, 400);
 }

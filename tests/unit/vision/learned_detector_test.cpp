@@ -72,14 +72,14 @@ TEST(LearnedDetector, CommittedModelLoadsAndGivesQuarterResolutionMaps) {
   EXPECT_EQ(maps.size[3], 80);
 }
 
-// tools/fruit_net_parity.py ran the same ONNX weights in PyTorch on this image.
-TEST(LearnedDetector, OutputEqualsPyTorchWithin1e4) {
+// tools/fruit_net_parity.py ran the same ONNX weights in PyTorch on fruit_net_parity.png into `expected`.
+void expect_pytorch_parity(const char* model_file, const std::string& expected) {
   const cv::Mat3b img = cv::imread(std::string(kData) + "fruit_net_parity.png", cv::IMREAD_COLOR);
   ASSERT_FALSE(img.empty());
-  std::ifstream in(std::string(kData) + "fruit_net_parity.txt");
+  std::ifstream in(std::string(kData) + expected);
   int n, c, h, w;
   ASSERT_TRUE(in >> n >> c >> h >> w);
-  LearnedDetector det(model(kModel));
+  LearnedDetector det(model(model_file));
   const cv::Mat maps = det.forward(img);
   ASSERT_EQ(maps.total(), static_cast<std::size_t>(n) * c * h * w);
   ASSERT_EQ(maps.size[2], h);
@@ -91,12 +91,20 @@ TEST(LearnedDetector, OutputEqualsPyTorchWithin1e4) {
     ASSERT_TRUE(in >> want) << i;
     worst = std::max(worst, std::abs(got[i] - want));
   }
-  EXPECT_LT(worst, 1e-4);
+  EXPECT_LT(worst, 1e-4) << model_file;
   // The test can fail: a one-cell shift of the image changes the output far beyond it.
   cv::Mat3b shifted;
   cv::copyMakeBorder(img.colRange(0, img.cols - 4), shifted, 0, 0, 4, 0, cv::BORDER_REPLICATE);
   const cv::Mat other = det.forward(shifted);
-  EXPECT_GT(cv::norm(other, maps, cv::NORM_INF), 1e-2);
+  EXPECT_GT(cv::norm(other, maps, cv::NORM_INF), 1e-2) << model_file;
+}
+
+TEST(LearnedDetector, OutputEqualsPyTorchWithin1e4) { expect_pytorch_parity(kModel, "fruit_net_parity.txt"); }
+
+// The photo configuration's four-model ensemble (tools/merge_models.py): grouped convolutions, which OpenCV
+// must run as PyTorch does; the merge itself checks that the network gives its members' mean.
+TEST(LearnedDetector, MergedEnsembleOutputEqualsPyTorchWithin1e4) {
+  expect_pytorch_parity("config/vision/models/fruit_net_x4.onnx", "fruit_net_x4_parity.txt");
 }
 
 // Fruit at the training scale (55..70 px once the frame is scaled to 320
