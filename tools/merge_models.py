@@ -62,7 +62,7 @@ def merge(models):
                       numpy_helper.from_array(b.astype(np.float32), f"b{i}")]
             nodes.append(helper.make_node("Conv", [x, f"w{i}", f"b{i}"], [y], **attrs))
         x = y
-    nodes[-1].output[0] = "maps"
+    nodes[-1].output[0] = models[0].graph.output[0].name
     src = models[0].graph
     graph = helper.make_graph(nodes, f"fruit_net_x{k}", [src.input[0]], [src.output[0]], inits)
     merged = helper.make_model(graph, opset_imports=models[0].opset_import)
