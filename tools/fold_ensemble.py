@@ -79,7 +79,7 @@ def main():
         line = f"nested {chosen}, best F1 per fold {' '.join(f'{b:.3f}' for b in best)}"
         for name, keep in (("all", lambda i: True), ("ripe", lambda i: items[i][0] not in GREEN),
                            ("green", lambda i: items[i][0] in GREEN)):
-            c = [sum(counts[chosen[fold_of[i]]][i][j] for i in counts[chosen[0]] if keep(i)) for j in range(3)]
+            c = [sum(counts[chosen[fold_of[i]]][i][j] for i in range(len(items)) if keep(i)) for j in range(3)]
             line += f" | {name} P {c[0] / max(c[1], 1):.3f} R {c[0] / max(c[2], 1):.3f} F1 {td.f1(*c):.3f}"
         return line
 
