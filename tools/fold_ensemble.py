@@ -24,7 +24,8 @@ from fold_thresholds import GREEN
 
 
 def visible(out, u, v, d):
-    """Mean mask probability over the cells whose centre lies in the fruit's disc (LearnedDetector)."""
+    """Mean mask probability over the cells whose centre lies in the fruit's disc around its sub-cell centre
+    (LearnedDetector centres the disc on the peak cell, less than a cell away: close, not the same)."""
     m = torch.sigmoid(out[2]).numpy()
     ys, xs = np.mgrid[0 : m.shape[0], 0 : m.shape[1]]
     inside = ((xs + 0.5) * td.STRIDE - u) ** 2 + ((ys + 0.5) * td.STRIDE - v) ** 2 <= (d / 2) ** 2

@@ -395,18 +395,21 @@ def main():
             f"diameter error median {np.median(de) if de else float('nan'):.3f} D")
 
     ts = a.seed if a.train_seed is None else a.train_seed
-    def train_with(photos, seed, name, fold_offset=0):
-        """A model (seed `seed`) on `photos`, distilled from the teachers given for it (folders' `name`, and
-        --teacher-seeds trained here on the same photos)."""
-        teachers = [load_teacher(os.path.join(d, name)) for d in a.teachers]
-        for s in (int(v) for v in a.teacher_seeds.split(",") if v.strip()):
-            log(f"teacher, seed {s + fold_offset}")
-            teachers.append(train(photos, a.steps, s + fold_offset, log=log, sim=sim, sim_share=a.sim_share,
-                                  strong=a.jitter == "strong", mosaic_share=a.mosaic))
-        if teachers:
-            log(f"distilling {len(teachers)} teachers")
+    def fit(photos, seed, teachers=()):
         return train(photos, a.steps, seed, log=log, sim=sim, sim_share=a.sim_share, strong=a.jitter == "strong",
                      mosaic_share=a.mosaic, teachers=teachers)
+
+    def train_with(photos, name, offset=0):
+        """A model (seed ts + offset: fold k's offset is 1 + k) on `photos`, distilled from the teachers given for
+        it: the folders' model `name`, and one per --teacher-seeds S trained here (seed S + offset)."""
+        teachers = [load_teacher(os.path.join(d, name)) for d in a.teachers]
+        for s in (int(v) for v in a.teacher_seeds.split(",") if v.strip()):
+            log(f"teacher, seed {s + offset}")
+            teachers.append(fit(photos, s + offset))
+        if teachers:
+            log(f"distilling {len(teachers)} teachers")
+        return fit(photos, ts + offset, teachers)
+
     if a.folds:
         order = list(range(len(items)))
         random.Random(a.seed).shuffle(order)
@@ -421,8 +424,8 @@ def main():
         for k in range(a.folds):
             test = [items[i] for i in sorted(order[k :: a.folds])]
             log(f"fold {k}: {len(test)} test photos: " + " ".join(it[0] for it in test))
-            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])], ts + 1 + k,
-                             f"fruit_net.fold{k}.onnx", fold_offset=1 + k)
+            net = train_with([it for i, it in enumerate(items) if i not in set(order[k :: a.folds])],
+                             f"fruit_net.fold{k}.onnx", offset=1 + k)
             export(net, a.out.replace(".onnx", f".fold{k}.onnx"))
             preds = predict(net, test)
             per_fold.append({t: score(net, test, t, preds)[:3] for t in THRESHOLDS})
@@ -451,7 +454,7 @@ def main():
             " (learned_keys::threshold; the figures at it over the same folds would be optimistic)")
     if a.folds_only:
         return
-    net = train_with(items, ts, "fruit_net.onnx")
+    net = train_with(items, "fruit_net.onnx")
     export(net, a.out)
     if sim_test:
         report("final model on rendered frames", score(net, sim_test))
