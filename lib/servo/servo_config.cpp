@@ -59,6 +59,8 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.ir_surface_travel = n.get(k::ir_surface_travel);
   c.ir_surface_tolerance = n.get(k::ir_surface_tolerance);
   c.ir_vision_agreement = n.get(k::ir_vision_agreement);
+  c.ir_split_close = n.get(k::ir_split_close);
+  c.ir_split_max = n.get(k::ir_split_max);
   c.front_fruit_tolerance = n.get(k::front_fruit_tolerance);
   c.grasp_advance = n.get(k::grasp_advance);
   c.grasp_stop_at_joint_limit = n.get(k::grasp_stop_at_joint_limit);
@@ -231,7 +233,7 @@ std::vector<config::Section> ServoConfig::schema() {
           "servo_controller", where, k::tick_period_s, k::status_period_s, k::validity_s, k::envelope,
           k::hand_camera_calibration, k::approach_mode, k::orient_law, k::ir_switch_distance, k::ir_approach_speed,
           k::ir_braking_decel, k::ir_min_speed, k::ir_grasp_range, k::ir_max_travel, k::ir_overshoot,
-          k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement,
+          k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement, k::ir_split_close, k::ir_split_max,
           k::front_fruit_tolerance, k::grasp_advance, k::grasp_stop_at_joint_limit, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
           k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::gone_in_distance, k::retreat_clearance,
           k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,

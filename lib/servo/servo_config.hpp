@@ -37,6 +37,8 @@ inline constexpr Key<double> ir_surface_reach{"ir_surface_reach", 0.12, {0.0, 1.
 inline constexpr Key<double> ir_surface_travel{"ir_surface_travel", 0.03, {1e-3, 1.0}, "m", "the IR reads a surface that stays put once the tool has come this far toward it ..."};
 inline constexpr Key<double> ir_surface_tolerance{"ir_surface_tolerance", 0.02, {1e-3, 0.2}, "m", "... its readings plus the tool's advance agreeing within this"};
 inline constexpr Key<double> ir_vision_agreement{"ir_vision_agreement", 0.05, {0.0, 1e6}, "m", "an IR grasp reading counts only with the triangulated centre no farther ahead (0: off)"};
+inline constexpr Key<double> ir_split_close{"ir_split_close", 0.0, {0.0, 0.2}, "m", "an IR grasp reading while a checked estimate lies between ir_vision_agreement and this far ahead: leaf or fruit, go on half the gap between them and close there (0: off, a leaf)"};
+inline constexpr Key<double> ir_split_max{"ir_split_max", 0.02, {0.0, 0.1}, "m", "... but no farther than this: farther, the palm runs into a fruit the IR read"};
 inline constexpr Key<double> front_fruit_tolerance{"front_fruit_tolerance", 0.015, {0.0, 1e6}, "m", "a fruit in front filling the view is closed on only this near the gripper axis"};
 inline constexpr Key<bool> grasp_stop_at_joint_limit{"grasp_stop_at_joint_limit", true, {}, "", "a joint held at its limit (ROBOT_STATE kFlagJointLimit) as the gripper closes stops grasp_advance there: the link clips the twist and the tool goes sideways"};
 inline constexpr Key<double> grasp_advance{"grasp_advance", 0.015, {0.0, 0.05}, "m", "the arm goes on this far along the tool axis while the gripper closes"};
@@ -248,6 +250,14 @@ struct ServoConfig {
   // [m] > 0: an IR grasp reading counts only with the triangulated fruit
   // centre no farther ahead (a leaf in front of it); 0: off
   double ir_vision_agreement = servo_keys::ir_vision_agreement.fallback;
+  // [m] > ir_vision_agreement: an IR grasp reading while a checked estimate
+  // lies between the two this far ahead cannot be told from a leaf in front of
+  // the fruit: the arm goes on half the gap between the two centres and closes
+  // there, the fingers' reach holding either (0: off, such a reading is a leaf)
+  double ir_split_close = servo_keys::ir_split_close.fallback;
+  // [m] ... going on no farther than this: past it, with grasp_advance, the
+  // palm runs into a fruit the IR read (25 mm did in the simulator)
+  double ir_split_max = servo_keys::ir_split_max.fallback;
   // [m] a fruit in front of the one aimed at, filling the hand image when the
   // IR reads the grasp range, is closed on only with its centre this near the
   // gripper axis; farther off, the attempt is given up (it would be knocked off)

@@ -96,7 +96,10 @@ class IrGuidance {
   // Going on past a leaf the IR read in front of the fruit, there along the
   // tool axis (tool position + range, as Surface::at); unset once the sensor is past it.
   std::optional<double> leaf_at_;
-  bool leaf_noted_ = false;          // this attempt has gone past a leaf (noted once)
+  bool leaf_noted_ = false;  // this attempt has gone past a leaf (noted once)
+  // Leaf or fruit (ir_split_close): the gripper closes once the tool has come
+  // this far along its axis (as leaf_at_); unset when not splitting.
+  std::optional<double> split_close_at_;
   std::optional<double> last_near_;  // last IR range just above the grasp range in this attempt [m]
   bool folded_ = false;              // ... followed by a jump far beyond it: the sensor folded back
   rt::Micros progress_at_ = 0;       // when the tool last moved ir_progress_step ...

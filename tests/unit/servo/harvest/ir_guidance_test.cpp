@@ -133,6 +133,76 @@ TEST(IrGuidance, ALeafInFrontOfACheckedEstimateIsPassedOnce) {
   EXPECT_EQ(near.step(kT, kTool, fruit(0.2, Fruit::Depth::kNear), std::nullopt).action, IrStep::Action::kClose);
 }
 
+// Leaf or fruit (ir_split_close 7.5 cm, ir_split_max 3 cm, the shipped grasp range 35 mm): a grasp reading of 33 mm
+// puts a fruit's centre 33 + 35 (half the 70 mm diameter) - 50 (the palm behind the tool point) = 18 mm ahead of the
+// tool point, the checked estimate 70 mm: the arm goes on half the 52 mm between them, 26 mm, at the slowest speed
+// (the reading is at the grasp range), whatever the IR reads meanwhile (folded back, far), then closes. No farther
+// than ir_split_max (2 cm by default). Beyond the limit the reading is a leaf as before, within the agreement the
+// fruit; not from a depth the crossing did not check, nor with a nearer fruit filling the view, nor with the key off.
+TEST(IrGuidance, LeafOrFruitGoesOnHalfTheGapThenCloses) {
+  ServoConfig cfg;
+  cfg.ir_grasp_range = 0.035;
+  cfg.ir_split_close = 0.075;
+  cfg.ir_split_max = 0.03;
+  const auto start = [&cfg](double range) {
+    IrGuidance g(cfg);
+    g.begin(kTool.translation(), kT);
+    g.on_reading(reading(range), kT, true);
+    return g;
+  };
+  IrGuidance g = start(0.033);
+  IrStep s = g.step(kT, kTool, fruit(0.07, Fruit::Depth::kConfirmed), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_NEAR(s.forward_speed, 0.04, 1e-12);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 33 mm, fruit 70 mm ahead: leaf or fruit, closing 26 mm on");
+  // Nothing in range (past a leaf): braking to the point, sqrt(2 x 0.8 x (0.026 - 0.006)), not to the estimate.
+  g.on_reading(reading(0.8, ir_range_t::TOO_FAR), kT + 5'000, true);
+  s = g.step(kT + 5'000, tool_at(0.006), fruit(0.064, Fruit::Depth::kCrossing), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_NEAR(s.forward_speed, std::sqrt(2 * 0.8 * 0.020), 1e-6);
+  g.on_reading(reading(0.300), kT + 10'000, true);  // folded back (or past a leaf): no matter
+  s = g.step(kT + 10'000, tool_at(0.0255), fruit(0.045, Fruit::Depth::kCrossing), std::nullopt);
+  EXPECT_EQ(s.action, IrStep::Action::kAdvance);
+  EXPECT_FALSE(s.note.has_value());
+  g.on_reading(reading(0.020), kT + 20'000, true);  // a grasp reading short of the point: not yet
+  EXPECT_EQ(g.step(kT + 20'000, tool_at(0.0255), fruit(0.045, Fruit::Depth::kCrossing), std::nullopt).action,
+            IrStep::Action::kAdvance);
+  EXPECT_EQ(g.step(kT + 20'000, tool_at(0.0261), fruit(0.044, Fruit::Depth::kCrossing), std::nullopt).action,
+            IrStep::Action::kClose);
+  // A new attempt forgets the point.
+  g.retry(tool_at(0.0261).translation(), kT + 30'000);
+  g.on_reading(reading(0.300), kT + 30'000, true);
+  EXPECT_EQ(g.step(kT + 30'000, tool_at(0.03), fruit(0.2, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
+
+  cfg.ir_split_max = ServoConfig{}.ir_split_max;
+  IrGuidance capped = start(0.033);
+  s = capped.step(kT, kTool, fruit(0.07, Fruit::Depth::kConfirmed), std::nullopt);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 33 mm, fruit 70 mm ahead: leaf or fruit, closing 20 mm on");
+  EXPECT_EQ(capped.step(kT, tool_at(0.0195), fruit(0.05, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
+  EXPECT_EQ(capped.step(kT, tool_at(0.0201), fruit(0.05, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kClose);
+  IrGuidance beyond = start(0.033);
+  s = beyond.step(kT, kTool, fruit(0.076, Fruit::Depth::kConfirmed), std::nullopt);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 33 mm, fruit 76 mm ahead: past a leaf");
+  IrGuidance within = start(0.033);
+  EXPECT_EQ(within.step(kT, kTool, fruit(0.049, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kClose);
+  IrGuidance size_only = start(0.033);
+  EXPECT_EQ(size_only.step(kT, kTool, fruit(0.07, Fruit::Depth::kSize), std::nullopt).action, IrStep::Action::kClose);
+  IrGuidance front = start(0.033);
+  EXPECT_EQ(front.step(kT, kTool, fruit(0.07, Fruit::Depth::kConfirmed), 0.010).action, IrStep::Action::kClose);
+  cfg.ir_split_close = 0.0;
+  IrGuidance off = start(0.033);
+  s = off.step(kT, kTool, fruit(0.07, Fruit::Depth::kConfirmed), std::nullopt);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 33 mm, fruit 70 mm ahead: past a leaf");
+}
+
 // A fruit seen whole in a fresh hand image with its estimate 10 cm or more ahead is far, whatever its depth's
 // source: a grasp reading then is a leaf in front of it (in wind the crossing disagrees with a fruit that has swung
 // on: its depth is the size's alone). Not 9 cm ahead, not unless seen whole, not with a nearer fruit filling the view.
