@@ -1,7 +1,8 @@
 // IR_APPROACH, the last centimetres (thesis HarvestStep5): when the IR
 // reading says the fruit is inside the gripper, when a reading is a leaf in
-// front of the fruit, when a nearer fruit is in the way, how fast to go on,
-// and when an attempt has run out of travel or is blocked.
+// front of the fruit (or may be either: then close between the two), when a
+// nearer fruit is in the way, how fast to go on, and when an attempt has run
+// out of travel or is blocked.
 #pragma once
 
 #include <Eigen/Geometry>
