@@ -66,6 +66,10 @@ void IrGuidance::track_surface(const Eigen::Isometry3d& tool) {
   }
 }
 
+double IrGuidance::grasp_reading() const {
+  return folded_ && last_near_ ? *last_near_ : std::max(0.0, static_cast<double>(ir_->range_m));
+}
+
 bool IrGuidance::surface_ahead() const { return surface_ && surface_->to - surface_->from >= cfg_.ir_surface_travel; }
 
 double IrGuidance::forward_speed(const Eigen::Isometry3d& tool, const Fruit& fruit, bool ir_sees_fruit,
@@ -148,7 +152,7 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
   // that.
   if (at_grasp_range && !in_front && !leaf_at_ && !split_close_at_ && beyond_agreement && !far_in_view &&
       ahead <= cfg_.ir_split_close) {
-    const double range = folded_ && last_near_ ? *last_near_ : std::max(0.0, static_cast<double>(ir_->range_m));
+    const double range = grasp_reading();
     const double reading_ahead = range + 0.5 * fruit.diameter - cfg_.palm_offset;
     const double split = std::clamp(0.5 * (ahead - reading_ahead), 0.0, cfg_.ir_split_max);
     split_close_at_ = along + split;
@@ -156,21 +160,14 @@ IrStep IrGuidance::step(rt::Micros now, const Eigen::Isometry3d& tool, const Fru
                std::to_string(std::lround(ahead * 1000)) + " mm ahead: leaf or fruit, closing " +
                std::to_string(std::lround(split * 1000)) + " mm on";
   }
-  if (split_close_at_) {
-    if (along >= *split_close_at_) {
-      out.action = IrStep::Action::kClose;
-      return out;
-    }
-    folded_ = false;
-    last_near_.reset();
+  if (split_close_at_ && along >= *split_close_at_) {
+    out.action = IrStep::Action::kClose;
+    return out;
   }
   const bool leaf =
       at_grasp_range && !in_front && !split_close_at_ && (leaf_at_.has_value() || beyond_agreement || far_in_view);
   if (leaf) {  // the leaf, not the fruit
-    if (!leaf_at_) {
-      const double range = folded_ && last_near_ ? *last_near_ : std::max(0.0, static_cast<double>(ir_->range_m));
-      leaf_at_ = along + range;
-    }
+    if (!leaf_at_) leaf_at_ = along + grasp_reading();
     folded_ = false;
     last_near_.reset();
   }

@@ -89,6 +89,8 @@ class IrGuidance {
   void track_surface(const Eigen::Isometry3d& tool);
   // The IR has read one surface staying put while the tool came ir_surface_travel toward it.
   bool surface_ahead() const;
+  // The range of the grasp reading: the near one before the sensor folded back, else the newest.
+  double grasp_reading() const;
 
   ServoConfig cfg_;
   std::optional<ir_range_t> ir_;
