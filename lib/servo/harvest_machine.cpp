@@ -170,9 +170,12 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
       enter(State::kDone, now, out);
       break;
     case Expiry::kIrAttempt:
-      // Back along the tool axis (the palm retraces its way in) and try again, or give up.
+      // Back to where the IR approach began (along the tool axis to abreast of it without retrace_way_in) and try
+      // again, or give up.
       if (going_in_.attempts_left()) {
-        start_goal(back_along_axis(tool(), going_in_.ir_start(), 0.0), State::kBackoff, now, out);
+        const Eigen::Vector3d began = going_in_.ir_start();
+        start_goal(cfg_.retrace_way_in ? back_toward(tool(), began, 0.0) : back_along_axis(tool(), began, 0.0),
+                   State::kBackoff, now, out);
         break;
       }
       [[fallthrough]];

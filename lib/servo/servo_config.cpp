@@ -73,6 +73,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.retreat_distance = n.get(k::retreat_distance);
   c.gone_in_distance = n.get(k::gone_in_distance);
   c.retreat_clearance = n.get(k::retreat_clearance);
+  c.retrace_way_in = n.get(k::retrace_way_in);
   c.palm_offset = n.get(k::palm_offset);
   c.pull_distance = n.get(k::pull_distance);
   c.twist_angle = n.get(k::twist_angle);
@@ -236,7 +237,7 @@ std::vector<config::Section> ServoConfig::schema() {
           k::ir_surface_reach, k::ir_surface_travel, k::ir_surface_tolerance, k::ir_vision_agreement, k::ir_split_close, k::ir_split_max,
           k::front_fruit_tolerance, k::grasp_advance, k::grasp_stop_at_joint_limit, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
           k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::gone_in_distance, k::retreat_clearance,
-          k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
+          k::retrace_way_in, k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
           k::pull_through, k::turn_while_retreating, k::turn_ahead_home_within, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
           k::max_attempts_per_fruit, k::association_gate_px, k::association_tie_weight, k::association_tie_weight_doubtful, k::association_size_ratio, k::min_ahead_of_home,
           k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,

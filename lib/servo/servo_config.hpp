@@ -51,6 +51,7 @@ inline constexpr Key<double> position_tolerance{"position_tolerance", 0.005, {1e
 inline constexpr Key<double> retreat_distance{"retreat_distance", 0.15, {0.0, 1e6}, "m", "pull back along the tool axis after a failure"};
 inline constexpr Key<double> gone_in_distance{"gone_in_distance", 0.075, {0.0, 1e6}, "m", "a fruit the camera-in-hand measures outside the workspace during APPROACH, with the tool farther than this from home: it has gone into the canopy and backs out along its axis first"};
 inline constexpr Key<double> retreat_clearance{"retreat_clearance", 0.0, {0.0, 1.0}, "m", "> 0 (e.g. 0.12): a retreat followed by the straight way to the next aim ends where that way passes this far from every fruit the fixed camera sees (0: always abreast of where the approach began; 0.12 picked fewer on four tree seeds, docs/demo.md)"};
+inline constexpr Key<bool> retrace_way_in{"retrace_way_in", false, {}, "", "the way out after a close (RETREAT, and BACKOFF before a retry) goes straight back to where the way in began (the approach's start; the IR approach's for BACKOFF), not along the tool axis, which centring near the fruit sets beside the way in (tried: fewer ways out past a neighbour, but fewer fruit picked over 15 tree seeds; off, docs/demo.md)"};
 inline constexpr Key<double> palm_offset{"palm_offset", 0.05, {0.0, 0.5}, "m", "the palm (IR sensor) this far behind the tool point along its axis: the gripper's body that retreat_clearance keeps clear too"};
 inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m", "detach: pull back along the tool axis ..."};
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
@@ -282,6 +283,7 @@ struct ServoConfig {
   // the fixed camera sees, for the tool point and the palm palm_offset behind
   // it (0: always abreast).
   double retreat_clearance = servo_keys::retreat_clearance.fallback;  // [m]
+  bool retrace_way_in = servo_keys::retrace_way_in.fallback;  // the way out goes straight back to where the way in began
   double palm_offset = servo_keys::palm_offset.fallback;              // [m]
   double pull_distance = servo_keys::pull_distance.fallback;        // [m] detach: pull back along the tool axis ...
   double twist_angle = servo_keys::twist_angle.fallback;        // [rad] ... while twisting about it

@@ -113,6 +113,18 @@ Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::opti
   return g;
 }
 
+Eigen::Isometry3d back_toward(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& began,
+                              double at_least) {
+  if (!began) return back_along_axis(tool, std::nullopt, at_least);
+  const Eigen::Vector3d way = *began - tool.translation();
+  const double length = way.norm();
+  // Behind the tool (within 60 deg of straight back along its axis), and not where it is.
+  if (length < 1e-3 || -way.dot(tool.rotation().col(2)) < 0.5 * length) return back_along_axis(tool, began, at_least);
+  Eigen::Isometry3d g = tool;
+  g.translation() += std::max(length, at_least) / length * way;
+  return g;
+}
+
 namespace {
 double segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p) {
   const Eigen::Vector3d ab = b - a;
@@ -122,15 +134,17 @@ double segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, cons
 }
 }  // namespace
 
-Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
-                                double at_least, const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
+Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const Eigen::Isometry3d& farthest, double at_least,
+                                const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
                                 double clearance, double palm, double step) {
-  const Eigen::Isometry3d farthest = back_along_axis(tool, abreast_of, at_least);
+  const Eigen::Vector3d way = farthest.translation() - tool.translation();
+  const double back_max = way.norm();
+  if (back_max <= 0.0) return farthest;
+  const Eigen::Vector3d dir = way / back_max;
   const Eigen::Vector3d axis = tool.rotation().col(2);
-  const double back_max = (tool.translation() - farthest.translation()).dot(axis);
   const Eigen::Vector3d to_palm = to.translation() - palm * to.rotation().col(2);
   for (double back = at_least; back < back_max; back += std::max(step, 1e-3)) {
-    const Eigen::Vector3d from = tool.translation() - back * axis;
+    const Eigen::Vector3d from = tool.translation() + back * dir;
     const Eigen::Vector3d from_palm = from - palm * axis;
     const bool clear = std::all_of(fruit.begin(), fruit.end(), [&](const Eigen::Vector3d& f) {
       return segment_distance(from, to.translation(), f) >= clearance &&

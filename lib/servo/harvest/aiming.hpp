@@ -50,20 +50,33 @@ std::optional<Eigen::Isometry3d> aim_from_viewpoint(const ServoConfig& cfg, cons
 
 // The tool moved straight back along its axis, in its orientation: to
 // abreast of `abreast_of` (if given) or by `at_least`, whichever is
-// farther. The palm retraces the way the gripper came in; a straight line
-// to an earlier point cuts sideways through neighbouring fruit.
+// farther. The default way out: the palm retraces the way in as far as that
+// way was straight along the final axis (back_toward when centring bent it).
 Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
                                   double at_least);
 
+// The tool moved straight back to `began` (where its way in began), in its
+// orientation, or on along that line to `at_least` back, whichever is
+// farther. Centring bends the way in near the fruit: the chord stays within
+// that bend of it, where the axis line at the end passes up to the whole bend
+// beside its start (by the simulator's truth over 30 tree runs the axis line
+// passed the palm within a knock of a fruit on 13 of 1191 ways out, the chord
+// on 5; yet the runs with it picked fewer: retrace_way_in, off, docs/demo.md).
+// Along the axis (back_along_axis) when `began` is unknown, or not behind the
+// tool.
+Eigen::Isometry3d back_toward(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& began,
+                              double at_least);
+
 // RETREAT's end when the way on is a straight line to `to` (the next aim
-// from home, turning on the way): back along the tool axis by `at_least`,
-// then further in `step`s up to abreast of `abreast_of` (back_along_axis's
-// goal), the first place from where that line, for the tool point and for
-// the point `palm` behind it on the axis, passes at least `clearance` from
-// every fruit in `fruit`. A fruit beside the way keeps the retreat going
-// to abreast: the gripper leaves the canopy the way it came in.
-Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& abreast_of,
-                                double at_least, const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
+// from home, turning on the way): on the straight way from the tool to
+// `farthest` (the full retreat: back_along_axis's or back_toward's goal),
+// at least `at_least` back, then further in `step`s up to `farthest`, the
+// first place from where that line, for the tool point and for the point
+// `palm` behind it on the axis, passes at least `clearance` from every fruit
+// in `fruit`. A fruit beside the way keeps the retreat going to `farthest`:
+// the gripper leaves the canopy the way it came in.
+Eigen::Isometry3d clear_retreat(const Eigen::Isometry3d& tool, const Eigen::Isometry3d& farthest, double at_least,
+                                const Eigen::Isometry3d& to, const std::vector<Eigen::Vector3d>& fruit,
                                 double clearance, double palm, double step = 0.02);
 
 // The tool within `retreat_distance` of `home` is out of the canopy: the straight way home, or to an aim from

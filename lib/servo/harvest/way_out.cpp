@@ -10,6 +10,7 @@ WayOut::WayOut(const ServoConfig& cfg, bool straight)
     : straight_(straight),
       home_after_joint_limit_(cfg.home_after_joint_limit),
       pull_through_(cfg.pull_through && cfg.release_at_detach && cfg.release_while_retreating),
+      retrace_way_in_(cfg.retrace_way_in),
       retreat_clearance_(cfg.retreat_clearance),
       palm_offset_(cfg.palm_offset),
       pull_distance_(cfg.pull_distance),
@@ -19,7 +20,8 @@ WayOut::WayOut(const ServoConfig& cfg, bool straight)
       home_(cfg.home_pose) {}
 
 Eigen::Isometry3d WayOut::retreat(const Eigen::Isometry3d& from, double at_least) const {
-  return back_along_axis(from, approach_from_, at_least);
+  return retrace_way_in_ ? back_toward(from, approach_from_, at_least)
+                         : back_along_axis(from, approach_from_, at_least);
 }
 
 Eigen::Isometry3d WayOut::goal(const Eigen::Isometry3d& from, double at_least, const targets_t* fixed) {
@@ -28,7 +30,7 @@ Eigen::Isometry3d WayOut::goal(const Eigen::Isometry3d& from, double at_least, c
   // Every fruit the fixed camera sees now (the one just picked is in the gripper or falling where the pull ended).
   std::vector<Eigen::Vector3d> fruit;
   for (const auto& t : fixed->targets) fruit.emplace_back(t.position_base[0], t.position_base[1], t.position_base[2]);
-  return clear_retreat(from, approach_from_, at_least, home_, fruit, retreat_clearance_, palm_offset_);
+  return clear_retreat(from, retreat(from, at_least), at_least, home_, fruit, retreat_clearance_, palm_offset_);
 }
 
 WayOut::Start WayOut::start(const Eigen::Isometry3d& tool, const GoalTolerances& at_home) {

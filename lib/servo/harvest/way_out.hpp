@@ -1,6 +1,6 @@
 // How the gripper leaves the canopy after a fruit (RETREAT, and DETACH's pull
 // running on into it): back along the tool axis out to abreast of where the
-// approach began, the palm retracing its way in; with the straight way to the
+// approach began or, with retrace_way_in, straight back to it; with the straight way to the
 // next aim following (straight_to_next), only as far as that way needs to
 // clear the fruit the fixed camera sees (retreat_clearance); whether the next
 // fruit is then turned to from the retreat's end or from home (after a joint
@@ -33,7 +33,8 @@ class WayOut {
   void joint_limit_met() { joint_limit_met_ = true; }
   void home() { joint_limit_met_ = false; }
 
-  // Back along the tool axis by `at_least`, or out to abreast of where the approach began, whichever is farther.
+  // Back along the tool axis by `at_least`, or out to abreast of where the approach began, whichever is farther;
+  // with retrace_way_in straight back to where it began (back_toward).
   Eigen::Isometry3d retreat(const Eigen::Isometry3d& from, double at_least) const;
   // The way out from `from`, at least `at_least` back; decides next_from_there(). With the next fruit turned to
   // from its end and retreat_clearance > 0, only as far as the straight way to the aim from home passes that far
@@ -72,7 +73,7 @@ class WayOut {
   bool pulled_off(const Eigen::Isometry3d& tool) const;
 
  private:
-  bool straight_, home_after_joint_limit_, pull_through_;
+  bool straight_, home_after_joint_limit_, pull_through_, retrace_way_in_;
   double retreat_clearance_, palm_offset_, pull_distance_, retreat_distance_, twist_angle_, turn_home_within_;
   Eigen::Isometry3d home_;
   std::optional<Eigen::Vector3d> approach_from_;

@@ -154,9 +154,9 @@ TEST(ClosedLoop, LeafIsPassedWhileTheFruitAimedAtFillsTheImage) {
   EXPECT_TRUE(ever_noted(loop, "past a leaf"));
 }
 
-// BACKOFF goes straight back along the tool axis, the way the palm came,
-// not along the line to where the IR phase started: the centring moved the
-// tool sideways on the way in.
+// Without retrace_way_in (the default) BACKOFF
+// goes straight back along the tool axis, to abreast of where the IR phase
+// started.
 TEST(ClosedLoop, BackOffRetracesTheToolAxis) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
@@ -170,6 +170,28 @@ TEST(ClosedLoop, BackOffRetracesTheToolAxis) {
   EXPECT_GT(back.norm(), 0.1);
   EXPECT_LT(back.cross(tool.rotation().col(2)).norm(), 1e-4);  // no sideways part
   EXPECT_LT(back.dot(tool.rotation().col(2)), 0.0);            // backwards
+  EXPECT_LT(rotation_distance(goal.rotation(), tool.rotation()), 1e-6);
+}
+
+// With retrace_way_in (off by default, docs/demo.md) BACKOFF goes straight back
+// to where the IR phase started, in the tool's orientation: the centring
+// moved the tool sideways on the way in, and the axis line would pass that
+// far beside the way the palm came (docs/demo.md).
+TEST(ClosedLoop, BackOffRetracingTheWayInGoesStraightBackToWhereIrGuidanceBegan) {
+  WorldSpec spec = experiment_one();
+  spec.ir_dead = true;
+  ServoConfig cfg = test_config();
+  cfg.retrace_way_in = true;
+  Loop loop(spec, cfg);
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 60.0)) << loop.ctrl.machine().summary();
+  const Eigen::Vector3d began = loop.arm.tool().translation();
+  ASSERT_TRUE(loop.run_until_state(State::kBackoff, 60.0)) << loop.ctrl.machine().summary();
+  const Eigen::Isometry3d tool = loop.arm.tool();
+  ASSERT_EQ(loop.commands().back().second.type, +robot_command_t::TYPE_POSE_GOAL);
+  const auto goal = to_isometry(loop.commands().back().second.pose_goal);
+  EXPECT_LT((goal.translation() - began).norm(), 0.01);
+  EXPECT_GT((tool.translation() - began).cross(tool.rotation().col(2)).norm(), 1e-3);  // not along the axis
   EXPECT_LT(rotation_distance(goal.rotation(), tool.rotation()), 1e-6);
 }
 

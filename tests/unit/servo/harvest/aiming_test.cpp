@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "config/config.hpp"
@@ -160,7 +161,7 @@ TEST(Aiming, ARetreatEndsWhereTheWayOnClearsTheFruit) {
   to.translation() = Eigen::Vector3d(0.5, 0.0, 0.0);
   const Eigen::Vector3d start = Eigen::Vector3d::Zero();
   const auto z = [&](const std::vector<Eigen::Vector3d>& fruit, double palm) {
-    const Eigen::Isometry3d g = clear_retreat(tool, start, 0.15, to, fruit, 0.12, palm);
+    const Eigen::Isometry3d g = clear_retreat(tool, back_along_axis(tool, start, 0.15), 0.15, to, fruit, 0.12, palm);
     EXPECT_NEAR(g.translation().head<2>().norm(), 0.0, 1e-12);  // straight back along the axis
     EXPECT_TRUE(g.rotation().isApprox(tool.rotation()));
     return g.translation().z();
@@ -171,9 +172,51 @@ TEST(Aiming, ARetreatEndsWhereTheWayOnClearsTheFruit) {
   EXPECT_NEAR(z({{0.05, 0.0, 0.45}}, 0.0), 0.85, 1e-9);
   EXPECT_LT(z({{0.05, 0.0, 0.45}}, 0.3), 0.85 - 0.01);
   // Never beyond abreast of the start, however far the clearance would need.
-  EXPECT_NEAR(
-      clear_retreat(tool, Eigen::Vector3d(0.0, 0.0, 0.9), 0.15, to, {{0.2, 0.0, 0.5}}, 0.12, 0.0).translation().z(),
-      0.85, 1e-9);
+  EXPECT_NEAR(clear_retreat(tool, back_along_axis(tool, Eigen::Vector3d(0.0, 0.0, 0.9), 0.15), 0.15, to,
+                            {{0.2, 0.0, 0.5}}, 0.12, 0.0)
+                  .translation()
+                  .z(),
+              0.85, 1e-9);
+}
+
+// The way in began at the origin and went up +z; centring bent its last 0.2 m 4 cm sideways, to the tool at
+// (0.04, 0, 0.5) still looking along +z. Straight back to the origin (the chord), in the tool's orientation; on along
+// that line when at_least is farther; along the axis when the start is unknown or not behind the tool.
+TEST(Aiming, BackTowardWhereTheWayInBeganGoesStraightThere) {
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  tool.translation() = Eigen::Vector3d(0.04, 0.0, 0.5);
+  const Eigen::Vector3d began = Eigen::Vector3d::Zero();
+  const Eigen::Isometry3d g = back_toward(tool, began, 0.15);
+  EXPECT_LT((g.translation() - began).norm(), 1e-12);
+  EXPECT_TRUE(g.rotation().isApprox(tool.rotation()));
+  const double chord = std::hypot(0.04, 0.5);  // 0.5016 m
+  const Eigen::Vector3d farther = back_toward(tool, began, 0.6).translation();
+  EXPECT_NEAR((farther - tool.translation()).norm(), 0.6, 1e-12);
+  EXPECT_NEAR(farther.x(), 0.04 - 0.04 * 0.6 / chord, 1e-12);  // on the same line, past the start
+  EXPECT_NEAR(back_toward(tool, std::nullopt, 0.15).translation().z(), 0.35, 1e-12);
+  EXPECT_NEAR(back_toward(tool, std::nullopt, 0.15).translation().x(), 0.04, 1e-12);
+  EXPECT_NEAR(back_toward(tool, Eigen::Vector3d(0.04, 0.0, 0.7), 0.15).translation().z(), 0.35, 1e-12);  // ahead
+  EXPECT_NEAR(back_toward(tool, Eigen::Vector3d(0.6, 0.0, 0.4), 0.15).translation().x(), 0.04, 1e-12);   // beside
+}
+
+// The same way in, a neighbour at (0.06, 0, 0.3) that it passed 60 mm off (it went straight up the z axis there).
+// Hand-worked for the palm 5 cm behind the tool point, from (0.04, 0, 0.45): straight back along the axis it passes
+// x = 0.04 at z = 0.3, 20 mm from the neighbour's centre, inside the 28 mm (0.8 of a 35 mm radius) at which the
+// simulated palm knocks a fruit off; straight back to the start, along (-0.08, 0, -1) / 1.0032, it passes
+// |(0.02, 0, -0.15) x (-0.0797, 0, -0.9968)| = 0.0319 m from it.
+TEST(Aiming, BackTowardWhereTheWayInBeganKeepsThePalmOffANeighbourTheAxisLineSweeps) {
+  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
+  tool.translation() = Eigen::Vector3d(0.04, 0.0, 0.5);
+  const Eigen::Vector3d neighbour(0.06, 0.0, 0.3), palm_back(0.0, 0.0, -0.05);
+  const auto palm_pass = [&](const Eigen::Isometry3d& goal) {
+    const Eigen::Vector3d a = tool.translation() + palm_back, b = goal.translation() + palm_back;
+    const double s = std::clamp((neighbour - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+    return (a + s * (b - a) - neighbour).norm();
+  };
+  EXPECT_NEAR(palm_pass(back_along_axis(tool, Eigen::Vector3d::Zero(), 0.15)), 0.020, 1e-9);
+  const double chord = palm_pass(back_toward(tool, Eigen::Vector3d::Zero(), 0.15));
+  EXPECT_NEAR(chord, 0.0319, 0.0001);
+  EXPECT_GT(chord, 0.8 * 0.035);
 }
 
 TEST(Aiming, DetachPullsBackAlongTheAxisWhileTwistingAboutIt) {

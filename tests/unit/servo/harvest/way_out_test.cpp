@@ -38,6 +38,31 @@ TEST(WayOut, TheRetreatGoesBackOutToAbreastOfWhereTheApproachBegan) {
   EXPECT_NEAR(w.goal(tool, 0.15, nullptr).translation().z(), 0.85, 1e-12);
 }
 
+// retrace_way_in: the same retreat from a tool that centring took 4 cm sideways goes straight back to where the
+// approach began (not to abreast of it: 4 cm beside), with the retreat_clearance search along that line too.
+TEST(WayOut, RetracingTheWayInTheRetreatGoesStraightBackToWhereTheApproachBegan) {
+  ServoConfig cfg;
+  cfg.retrace_way_in = true;
+  WayOut w(cfg, true);
+  const Eigen::Isometry3d tool = at(0.04, 0.0, 1.0);
+  EXPECT_NEAR(w.retreat(tool, 0.15).translation().x(), 0.04, 1e-12);  // the approach unknown: along the axis
+  w.approach_began(Eigen::Vector3d::Zero());
+  EXPECT_LT(w.retreat(tool, 0.15).translation().norm(), 1e-12);
+  EXPECT_LT(w.goal(tool, 0.15, nullptr).translation().norm(), 1e-12);
+  EXPECT_TRUE(w.goal(tool, 0.15, nullptr).rotation().isApprox(tool.rotation()));
+  cfg.retrace_way_in = false;
+  EXPECT_NEAR(WayOut(cfg, true).retreat(tool, 0.15).translation().x(), 0.04, 1e-12);
+  // The clearance search steps along the chord: with no fruit seen it ends at_least (0.15 m) along it.
+  cfg.retrace_way_in = true;
+  cfg.retreat_clearance = 0.12;
+  WayOut c(cfg, true);
+  c.approach_began(Eigen::Vector3d::Zero());
+  const targets_t none = fixed_view({});
+  const Eigen::Vector3d g = c.goal(tool, 0.15, &none).translation();
+  EXPECT_NEAR((g - tool.translation()).norm(), 0.15, 1e-9);
+  EXPECT_NEAR(g.x() / g.z(), 0.04, 1e-9);  // on the line back to the origin
+}
+
 // straight_to_next: the next fruit is turned to from the retreat's end, unless a joint met its limit going in since
 // the arm was last home (home_after_joint_limit); without straight_to_next, or from somewhere unknown, home first.
 TEST(WayOut, TheNextFruitFromTheRetreatsEndUnlessAJointMetItsLimitGoingIn) {
