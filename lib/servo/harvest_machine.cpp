@@ -173,9 +173,7 @@ void HarvestMachine::on_timeout(rt::Micros now, MachineOutput& out) {
       // Back to where the IR approach began (along the tool axis to abreast of it without retrace_way_in) and try
       // again, or give up.
       if (going_in_.attempts_left()) {
-        const Eigen::Vector3d began = going_in_.ir_start();
-        start_goal(cfg_.retrace_way_in ? back_toward(tool(), began, 0.0) : back_along_axis(tool(), began, 0.0),
-                   State::kBackoff, now, out);
+        start_goal(way_back(tool(), going_in_.ir_start(), 0.0, cfg_.retrace_way_in), State::kBackoff, now, out);
         break;
       }
       [[fallthrough]];

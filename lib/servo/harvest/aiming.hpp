@@ -67,6 +67,13 @@ Eigen::Isometry3d back_along_axis(const Eigen::Isometry3d& tool, const std::opti
 Eigen::Isometry3d back_toward(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& began,
                               double at_least);
 
+// The way out to `began` (RETREAT: where the approach began; BACKOFF: where IR guidance began): back_toward with
+// `retrace` (retrace_way_in), else back_along_axis.
+inline Eigen::Isometry3d way_back(const Eigen::Isometry3d& tool, const std::optional<Eigen::Vector3d>& began,
+                                  double at_least, bool retrace) {
+  return retrace ? back_toward(tool, began, at_least) : back_along_axis(tool, began, at_least);
+}
+
 // RETREAT's end when the way on is a straight line to `to` (the next aim
 // from home, turning on the way): on the straight way from the tool to
 // `farthest` (the full retreat: back_along_axis's or back_toward's goal),

@@ -20,8 +20,7 @@ WayOut::WayOut(const ServoConfig& cfg, bool straight)
       home_(cfg.home_pose) {}
 
 Eigen::Isometry3d WayOut::retreat(const Eigen::Isometry3d& from, double at_least) const {
-  return retrace_way_in_ ? back_toward(from, approach_from_, at_least)
-                         : back_along_axis(from, approach_from_, at_least);
+  return way_back(from, approach_from_, at_least, retrace_way_in_);
 }
 
 Eigen::Isometry3d WayOut::goal(const Eigen::Isometry3d& from, double at_least, const targets_t* fixed) {

@@ -154,9 +154,8 @@ TEST(ClosedLoop, LeafIsPassedWhileTheFruitAimedAtFillsTheImage) {
   EXPECT_TRUE(ever_noted(loop, "past a leaf"));
 }
 
-// Without retrace_way_in (the default) BACKOFF
-// goes straight back along the tool axis, to abreast of where the IR phase
-// started.
+// Without retrace_way_in (the default) BACKOFF goes straight back along the
+// tool axis, to abreast of where the IR phase started.
 TEST(ClosedLoop, BackOffRetracesTheToolAxis) {
   WorldSpec spec = experiment_one();
   spec.ir_dead = true;
