@@ -74,9 +74,15 @@ TEST(ArmModel, K1207iHomeKeepsTheShoulderAndWristPitchesBent) {
     double x, y, z;
     bool wrist_stop;
   };
-  const Line lines[] = {{-228.6, 1066.8, -540.2, false}, {-68.6, 1168.4, -375.1, false}, {-412.6, 1011.4, -528.9, false},
-                        {-138, 1015, -223, false},       {-266.7, 1016.0, -540.2, false}, {549, 896, -203, false},
-                        {-715, 748, 47, false},          {40, 979, 61, true},             {39, 981, 69, true}};
+  const Line lines[] = {{-228.6, 1066.8, -540.2, false},
+                        {-68.6, 1168.4, -375.1, false},
+                        {-412.6, 1011.4, -528.9, false},
+                        {-138, 1015, -223, false},
+                        {-266.7, 1016.0, -540.2, false},
+                        {549, 896, -203, false},
+                        {-715, 748, 47, false},
+                        {40, 979, 61, true},
+                        {39, 981, 69, true}};
   for (const Line& l : lines) {
     const Eigen::Vector3d to = Eigen::Vector3d(l.x, l.y, l.z) / 1000.0 - home.translation();
     const double dt = 0.01, duration = to.norm() / 0.2;
