@@ -3,10 +3,11 @@
 // approach began or, with retrace_way_in, straight back to it; with the
 // straight way to the next aim following (straight_to_next), only as far as
 // that way needs to clear the fruit the fixed camera sees
-// (retreat_clearance); whether the next fruit is then turned to from the retreat's end or from home (after a joint
-// met its limit going in: the robot link's way home resets the arm's
-// posture); and, with pull_through, when the pull is over and the gripper
-// may let go. docs/servo-controller.md, "From one fruit to the next".
+// (retreat_clearance); whether the next fruit is then turned to from the
+// retreat's end or from home (after a joint met its limit going in: the
+// robot link's way home resets the arm's posture); and, with pull_through,
+// when the pull is over and the gripper may let go.
+// docs/servo-controller.md, "From one fruit to the next".
 #pragma once
 
 #include <Eigen/Geometry>
