@@ -7,7 +7,8 @@ CartesianStep cartesian_step(const RobotLinkConfig& config, const Eigen::VectorX
   CartesianStep out;
   out.clip = clip_twist(v, tool.translation(), config.workspace, config.limits, dt);
   int held = 0;  // joints braking for a position limit, the others making up the twist
-  const Eigen::VectorXd want = kinematics::joint_velocity_within_limits(config.model, q, out.clip.twist, dt, {}, &held);
+  const Eigen::VectorXd want =
+      kinematics::joint_velocity_within_limits(config.model, q, out.clip.twist, dt, {}, &held, &previous);
   const auto lim = kinematics::limit_joint_velocity(config.model, q, previous, want, dt);
   out.qdot = lim.qdot;
   out.position_clipped = lim.position_clipped || held > 0;

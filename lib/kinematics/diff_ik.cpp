@@ -48,13 +48,26 @@ Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::Vec
 }
 
 double stopping_speed(const Joint& joint, double q, double direction, double dt) {
-  const double room = std::max(0.0, direction > 0 ? joint.max - q : q - joint.min);
-  return std::min(std::sqrt(2.0 * joint.max_acceleration * room), room / dt);
+  const double a = joint.max_acceleration;
+  if (!(a > 0.0)) return 0.0;  // cannot brake: nothing toward the limit (as sqrt(2 a room) gave)
+  // The period in flight ramps from the speed before it, up to a dt^2 / 2 further than its command alone goes.
+  const double room = std::max(0.0, (direction > 0 ? joint.max - q : q - joint.min) - 0.5 * a * dt * dt);
+  // Braking in steps of a dt from v covers v dt + (v - a dt) dt + ... = v^2 / 2a + v dt / 2 for commands held over
+  // whole periods; a drive ramps to each new command within the period, which adds up to another v dt / 2. From
+  // v^2 / 2a + v dt = room: each period's allowed speed is at most a dt below the last (the continuous
+  // sqrt(2 a room) braked faster than a in the last steps, and joints passed their limits by up to 1.7 mrad).
+  return std::min(a * (std::sqrt(dt * dt + 2.0 * room / a) - dt), room / dt);
+}
+
+Eigen::VectorXd where_a_command_takes_hold(const Eigen::VectorXd& q, const Eigen::VectorXd* in_flight, double dt) {
+  return in_flight != nullptr ? Eigen::VectorXd(q + *in_flight * dt) : q;
 }
 
 Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
-                                             double dt, const IkOptions& options, int* num_locked) {
+                                             double dt, const IkOptions& options, int* num_locked,
+                                             const Eigen::VectorXd* in_flight) {
   const int n = model.dof();
+  const Eigen::VectorXd from = where_a_command_takes_hold(q, in_flight, dt);
   std::vector<bool> locked(static_cast<std::size_t>(n), false);
   Eigen::VectorXd fixed = Eigen::VectorXd::Zero(n);  // the locked joints' velocities
   Eigen::VectorXd qdot = joint_velocity_for_twist(model, q, twist, options);
@@ -70,10 +83,10 @@ Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen:
       // tree: the shoulder roll braking at 170 deg during an IR approach moved
       // the tool 150 mm sideways, its axis off the fruit).
       const auto& jt = model.joints[i];
-      const double next = q[i] + qdot[i] * dt;
+      const double next = from[i] + qdot[i] * dt;
       const bool passes = (qdot[i] > 0 && next > jt.max) || (qdot[i] < 0 && next < jt.min);
       const double allowed =
-          options.brake_at_limits ? stopping_speed(jt, q[i], qdot[i], dt) : (passes ? 0.0 : INFINITY);
+          options.brake_at_limits ? stopping_speed(jt, from[i], qdot[i], dt) : (passes ? 0.0 : INFINITY);
       if (!locked[i] && std::abs(qdot[i]) > allowed) {
         locked[i] = true;
         fixed[i] = std::copysign(allowed, qdot[i]);
@@ -118,10 +131,11 @@ LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorX
     out.acceleration_scaled = true;
   }
   // Position limits last, so they win over the acceleration limit: moving toward a limit at most as fast as it can
-  // still stop there with the joint's deceleration (and reach it within dt).
+  // still stop there with the joint's deceleration (and reach it within dt), from where `previous` leaves it.
+  const Eigen::VectorXd from = where_a_command_takes_hold(q, &previous, dt);
   for (int i = 0; i < n; ++i) {
     const auto& jt = model.joints[i];
-    const double allowed = stopping_speed(jt, q[i], qd[i], dt);
+    const double allowed = stopping_speed(jt, from[i], qd[i], dt);
     if (std::abs(qd[i]) > allowed) {
       qd[i] = std::copysign(allowed, qd[i]);
       out.position_clipped = true;

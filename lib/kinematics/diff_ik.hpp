@@ -33,18 +33,29 @@ struct IkOptions {
 Eigen::VectorXd joint_velocity_for_twist(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
                                          const IkOptions& options = {}, const std::vector<bool>* locked = nullptr);
 
-// The fastest `joint` at `q` may move in `direction` (its sign) and still stop
-// at the limit it heads for with its acceleration limit, reaching it no sooner
-// than `dt`; 0 at or past that limit.
+// The fastest `joint` at `q` may move in `direction` (its sign) for `dt` and
+// still stop at the limit it heads for, braking by its acceleration limit
+// times dt each period after (braking distance v^2 / 2a + v dt, the drive's
+// ramp to each command included, and a dt^2 / 2 kept for the ramp of the
+// period in flight), reaching it no sooner than `dt`; 0 at or past that limit.
 double stopping_speed(const Joint& joint, double q, double direction, double dt);
+
+// Where the joints will be when a command sent now takes hold: a drive applies
+// a command at the next SYNC, so the one `in_flight` (sent last period) moves
+// them for one more period first. `q` itself without one.
+Eigen::VectorXd where_a_command_takes_hold(const Eigen::VectorXd& q, const Eigen::VectorXd* in_flight, double dt);
 
 // As joint_velocity_for_twist, but a joint that would move toward a position
 // limit faster than its stopping_speed is held at that speed and the rest of
 // the twist re-solved with the remaining joints (the redundancy takes over),
 // so the tool still moves as commanded while the others can make it up.
-// Returns the held-joint count in `num_locked`.
+// Returns the held-joint count in `num_locked`. `in_flight`: the command sent
+// last period, the room to a limit measured from where it leaves the joints
+// (pass the same `previous` as to limit_joint_velocity, so that the limiter
+// after finds nothing more to clip).
 Eigen::VectorXd joint_velocity_within_limits(const ArmModel& model, const Eigen::VectorXd& q, const Twist& twist,
-                                             double dt, const IkOptions& options = {}, int* num_locked = nullptr);
+                                             double dt, const IkOptions& options = {}, int* num_locked = nullptr,
+                                             const Eigen::VectorXd* in_flight = nullptr);
 
 // Result of limiting a joint velocity command.
 struct LimitedVelocity {
@@ -57,7 +68,8 @@ struct LimitedVelocity {
 // Makes `desired` respect the joint limits over one control period `dt`
 // starting at (q, previous): speed limits and acceleration limits scale the
 // whole vector (keeps the direction of motion); near a position limit a joint
-// may only move toward it as fast as it can still stop before it.
+// may only move toward it as fast as it can still stop before it, from where
+// `previous` (still in flight) leaves it.
 LimitedVelocity limit_joint_velocity(const ArmModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& previous,
                                      const Eigen::VectorXd& desired, double dt);
 

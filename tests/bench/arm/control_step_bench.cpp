@@ -63,7 +63,8 @@ void BM_RobotLinkControlStep(benchmark::State& state) {
     const Eigen::VectorXd& q = qs[k++ % qs.size()];
     const Eigen::Isometry3d tool = kinematics::tool_pose(model(), q);
     const arm::ClippedTwist c = arm::clip_twist(v, tool.translation(), ws, lim, dt);
-    const Eigen::VectorXd want = kinematics::joint_velocity_within_limits(model(), q, c.twist, dt);
+    const Eigen::VectorXd want =
+        kinematics::joint_velocity_within_limits(model(), q, c.twist, dt, {}, nullptr, &previous);
     const auto out = kinematics::limit_joint_velocity(model(), q, previous, want, dt);
     benchmark::DoNotOptimize(out.qdot.data());
     if (k == 1) res = residual(q, want, v);

@@ -20,6 +20,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "arm/cartesian_control.hpp"
 #include "arm_goals.hpp"
 #include "can/memory_bus.hpp"
 #include "canopen/protocol.hpp"
@@ -849,17 +850,12 @@ TEST(RobotLinkNode, WorkspaceBoundaryIsNeverCrossed) {
   EXPECT_NEAR(measured_velocity(a, rig.last()).y(), 0.02, 0.002);
 }
 
-// From the posture shipped as home before 2026-12-07 (joint 2 at -5.75 deg), where this test was written. From
-// today's the same twist runs joint 1 into each end of the narrow range in turn and 1-3 mrad past them, braking
-// faster than its acceleration limit: the limiter measures the room from the joints as read, while the command
-// before still moves them for a period (a drive applies a command at the next SYNC). Not fixed yet
-// (docs/robot-link.md, "Known limits").
+// A narrow range for the shoulder roll and a twist that needs it, from the home posture: the joint runs into
+// each end of the range in turn. The limiter measures the room from where the command in flight leaves the joint
+// (a drive applies a command at the next SYNC) and brakes in whole periods: no joint passes its limit, and no
+// command changes faster than the acceleration limit (before that, 1-3 mrad past, braking faster than it).
 TEST(RobotLinkNode, JointLimitsAreRespected) {
   RobotLinkConfig c = default_config();
-  Eigen::VectorXd before(7);
-  before << 10.48, -5.75, 18.45, 103.01, -101.71, 29.50, 15.47;
-  c.model.home = c.model.rest = before * (std::numbers::pi / 180.0);
-  // A narrow range for joint 1 around home; a twist that needs joint 1.
   auto& j1 = c.model.joints[0];
   j1.min = c.model.home[0] - 0.03;
   j1.max = c.model.home[0] + 0.03;
@@ -889,6 +885,30 @@ TEST(RobotLinkNode, JointLimitsAreRespected) {
   EXPECT_EQ(rig.last().mode, +robot_state_t::MODE_MOVING) << rig.describe_last();
 }
 
+// One Cartesian step with a joint braking for its limit while a command is in flight: the IK holds the joint at
+// the speed the limiter allows (both measure the room from where the command in flight leaves it), so the tool
+// still gets the twist. With the IK measuring from the joint as read, the limiter slowed the held joint further
+// and the tool went off its twist (by 3 % of it here).
+TEST(CartesianStep, AJointHeldForItsLimitGivesTheLimiterNothingToClip) {
+  RobotLinkConfig c = default_config();
+  c.workspace = Workspace{};  // +-2 m: no face near (home is near the configured top)
+  Eigen::VectorXd q = c.model.home;
+  q[0] = c.model.joints[0].max - 0.05 * std::numbers::pi / 180.0;
+  const double dt = 0.01;
+  const kinematics::Twist twist = 0.4 * kinematics::tool_jacobian(c.model, q).col(0);  // 0.33 m/s, 0.4 rad/s
+  const Eigen::Isometry3d tool = kinematics::tool_pose(c.model, q);
+  // Steady braking: the command in flight is the one this step would give (a fixed point).
+  Eigen::VectorXd previous = kinematics::joint_velocity_for_twist(c.model, q, twist);
+  for (int k = 0; k < 30; ++k)
+    previous = kinematics::joint_velocity_within_limits(c.model, q, twist, dt, {}, nullptr, &previous);
+  const CartesianStep step = cartesian_step(c, q, tool, twist, previous, dt);
+  EXPECT_FALSE(step.clip.clipped) << step.clip.reason;
+  EXPECT_TRUE(step.position_clipped);
+  EXPECT_LT(step.qdot[0], 0.05) << "joint 1 is held";
+  EXPECT_LT((kinematics::tool_jacobian(c.model, q) * step.qdot - twist).norm(), 1e-3 * twist.norm());
+  EXPECT_LE(q[0] + previous[0] * dt + step.qdot[0] * dt, c.model.joints[0].max);
+}
+
 // A joint braking for its position limit (held at its stopping speed, the
 // others making up the twist) is reported as such: kFlagJointLimit, which the
 // servo controller reads (home before the next fruit).
@@ -908,7 +928,7 @@ TEST(RobotLinkNode, AJointBrakingForItsLimitIsReported) {
   });
   rig.run(1.0, every_20ms(rig, twist_command(0.05 * dir.x(), 0.05 * dir.y(), 0.05 * dir.z())));
   EXPECT_TRUE(flagged) << rig.describe_last();
-  EXPECT_LE(highest, upper + 2e-3);  // the drives lag their command by a period: 1.25 mrad past, seen (see above)
+  EXPECT_LE(highest, upper + 1e-6);  // 1.25 mrad past when the room was measured from the joint as read
   EXPECT_TRUE(rig.last().fault_flags & kFlagLimited);
 }
 
