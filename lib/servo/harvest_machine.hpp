@@ -165,7 +165,8 @@ class HarvestMachine {
                                                       cfg_.release_opening < 1.0 && g.position >= cfg_.release_opening);
   }
   // turn_while_retreating: `way_out` (a pose goal out of the canopy) turned to the aim of the fruit SELECT would choose
-  // at its end, the current one counted done (a dry run of the selection on a copy of the ledger: nothing recorded).
+  // at its end, the current one counted done (a dry run of the selection on a copy of the ledger: nothing recorded);
+  // only while the fixed camera sees the tree still, unless turn_in_wind.
   void turn_ahead(Eigen::Isometry3d& way_out, rt::Micros now) const;
   // ORIENT: aim at the current fruit from home, or from its viewpoint if it
   // lies more than max_aim_angle off the home axis (or the turn was blocked).

@@ -81,6 +81,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.release_while_retreating = n.get(k::release_while_retreating);
   c.pull_through = n.get(k::pull_through);
   c.turn_while_retreating = n.get(k::turn_while_retreating);
+  c.turn_in_wind = n.get(k::turn_in_wind);
   c.turn_ahead_home_within = n.get(k::turn_ahead_home_within);
   c.straight_to_next = n.get(k::straight_to_next);
   c.home_after_joint_limit = n.get(k::home_after_joint_limit);
@@ -238,7 +239,7 @@ std::vector<config::Section> ServoConfig::schema() {
           k::front_fruit_tolerance, k::grasp_advance, k::grasp_stop_at_joint_limit, k::ir_fold_near, k::ir_fold_jump, k::ir_progress_step,
           k::ir_attempts, k::orient_tolerance, k::position_tolerance, k::retreat_distance, k::gone_in_distance, k::retreat_clearance,
           k::retrace_way_in, k::palm_offset, k::pull_distance, k::twist_angle, k::release_at_detach, k::release_while_retreating,
-          k::pull_through, k::turn_while_retreating, k::turn_ahead_home_within, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
+          k::pull_through, k::turn_while_retreating, k::turn_in_wind, k::turn_ahead_home_within, k::straight_to_next, k::home_after_joint_limit, k::release_opening, k::fruit_order,
           k::max_attempts_per_fruit, k::association_gate_px, k::association_tie_weight, k::association_tie_weight_doubtful, k::association_size_ratio, k::min_ahead_of_home,
           k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
           k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,

@@ -57,7 +57,8 @@ inline constexpr Key<double> pull_distance{"pull_distance", 0.10, {0.0, 1e6}, "m
 inline constexpr Key<double> twist_angle{"twist_angle", 0.5236, {-6.3, 6.3}, "rad", "... while twisting about it"};
 inline constexpr Key<bool> release_at_detach{"release_at_detach", true, {}, "", "open the gripper where the pull ended (false: carry the fruit to drop_pose first)"};
 inline constexpr Key<bool> release_while_retreating{"release_while_retreating", true, {}, "", "... and with release_at_detach, the gripper opens as the retreat begins, the fruit counted picked then (it is off the tree, in the hand); it must report open within timeouts_s.release or the controller faults (false: RELEASE at rest first)"};
-inline constexpr Key<bool> turn_while_retreating{"turn_while_retreating", false, {}, "", "with straight_to_next: the way out after a fruit (a pick's pull and retreat, a failure's retreat) also turns the gripper to the aim from home of the fruit SELECT would choose at its end (the one under way counted done), so ORIENT there has only the rest to do; not toward a viewpoint; the selection at the end decides as before"};
+inline constexpr Key<bool> turn_while_retreating{"turn_while_retreating", true, {}, "", "with straight_to_next: the way out after a fruit (a pick's pull and retreat, a failure's retreat) also turns the gripper to the aim from home of the fruit SELECT would choose at its end (the one under way counted done), so ORIENT there has only the rest to do; not toward a viewpoint; the selection at the end decides as before"};
+inline constexpr Key<bool> turn_in_wind{"turn_in_wind", false, {}, "", "... also while the fixed camera's gauge does not say the tree is still (sway.tree_*): in wind the turn cost fruit (195 against 198 of 223 counted over eight tree_wind seeds, 194 against 200.5 of 226 earlier; docs/demo.md), so by default the way out turns only on a still tree"};
 inline constexpr Key<double> turn_ahead_home_within{"turn_ahead_home_within", 0.1, {0.0, 1.0}, "m", "... and a way out that turns so and would end this near home's position ends there, where ORIENT would go next (the last part of the line home is out of the canopy; 0: abreast of where the approach began, as without it)"};
 inline constexpr Key<bool> pull_through{"pull_through", true, {}, "", "... and the pull and the retreat are one motion: the arm does not stop where the pull ends, the gripper opens once the tool has come pull_distance back (the twist spread over the whole way out; false: pull, stop, retreat)"};
 inline constexpr Key<bool> straight_to_next{"straight_to_next", true, {}, "", "select the next fruit at the end of a retreat and turn to it from there (false: home first, the thesis)"};
@@ -291,6 +292,7 @@ struct ServoConfig {
   bool release_while_retreating = servo_keys::release_while_retreating.fallback;  // let go on the way out, not at rest
   bool pull_through = servo_keys::pull_through.fallback;  // ... without stopping where the pull ends
   bool turn_while_retreating = servo_keys::turn_while_retreating.fallback;  // the way out turns to the next fruit's aim
+  bool turn_in_wind = servo_keys::turn_in_wind.fallback;  // ... also when the tree is not seen still
   double turn_ahead_home_within = servo_keys::turn_ahead_home_within.fallback;  // [m] ... and ends at home if this near
   // After a pick (or a failure that retreats) the next fruit is selected at
   // the end of the retreat, out of the canopy, and ORIENT goes straight there

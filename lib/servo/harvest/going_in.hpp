@@ -69,6 +69,8 @@ class GoingIn {
     ir_.on_reading(msg, now, guiding && wind_.fold_back_allowed());
   }
 
+  // The fixed camera's gauge says the tree is still (WindWatch::tree_still).
+  bool tree_still(rt::Micros now) const { return wind_.tree_still(now); }
   // ACQUIRE, REACQUIRE: the fruit is followed in a hand image taken in after `since`.
   bool seen_since(rt::Micros now, rt::Micros since) const { return hand_.fresh(now) && hand_.seen_at() > since; }
   // One APPROACH step toward `fruit`, the tool at `tool` and the camera-in-hand at `camera`.
