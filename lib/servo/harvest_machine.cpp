@@ -86,7 +86,7 @@ void HarvestMachine::head_home(bool retreat, rt::Micros now, MachineOutput& out)
 
 void HarvestMachine::turn_ahead(Eigen::Isometry3d& way_out, rt::Micros now) const {
   if (!cfg_.turn_while_retreating || !way_.next_from_there() || !fixed_) return;
-  if (!cfg_.turn_in_wind && !going_in_.tree_still(now)) return;  // in wind the turning palm cost fruit (docs/demo.md)
+  if (!cfg_.turn_in_wind && !going_in_.tree_still(now)) return;  // in wind it picked fewer (docs/demo.md)
   FruitLedger ledger = ledger_;
   if (current_) ledger.use_up_attempts(current_->id);  // in the hand: the fixed view still shows it
   const Selection s = select_fruit(cfg_, *fixed_, ledger, cfg_.home_pose.translation(), now, tool().rotation());
