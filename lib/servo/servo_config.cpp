@@ -110,6 +110,7 @@ ServoConfig ServoConfig::from_yaml(const config::Node& n) {
   c.front_fruit_size_ratio = n.get(k::front_fruit_size_ratio);
   c.far_view_ahead = n.get(k::far_view_ahead);
   c.far_view_age = n.get(k::far_view_age);
+  c.axis_fruit_area = n.get(k::axis_fruit_area);
   c.whole_fruit_border_px = n.get(k::whole_fruit_border_px);
   c.whole_min_visible = n.get(k::whole_min_visible);
   c.goal_progress_step = n.get(k::goal_progress_step);
@@ -244,7 +245,7 @@ std::vector<config::Section> ServoConfig::schema() {
           k::max_aim_angle, k::view_angle, k::view_distance, k::triangulation_gap, k::min_triangulation_angle,
           k::image_pose_gap, k::same_fruit_distance, k::same_sight_angle, k::reused_id_distance, k::size_agreement,
           k::size_agreement_min, k::crossing_beyond, k::fixed_depth_gap, k::fills_view, k::front_fruit_size_ratio,
-          k::far_view_ahead, k::far_view_age, k::whole_fruit_border_px, k::whole_min_visible, k::goal_progress_step, k::goal_progress_angle,
+          k::far_view_ahead, k::far_view_age, k::axis_fruit_area, k::whole_fruit_border_px, k::whole_min_visible, k::goal_progress_step, k::goal_progress_angle,
           k::goal_progress_joint_speed, k::in_view_margin, k::sight_aim_margin),
       config::section("servo_controller.workspace", where, w::min, w::max, w::min_reach, w::max_reach),
       config::section("servo_controller.home_pose", where, k::pose::home_position, k::pose::home_orientation),

@@ -80,6 +80,7 @@ DetectorConfig DetectorConfig::from_yaml(const config::Node& n) {
   c.reject_shapes = n.get(k::reject_shapes, c.reject_shapes);
   c.min_roundness = n.get(k::min_roundness);
   c.min_solidity = n.get(k::min_solidity);
+  c.min_solidity_fitted = n.get(k::min_solidity_fitted);
   c.max_aspect_ratio = n.get(k::max_aspect_ratio);
   c.circle_fit = n.get(k::circle_fit, c.circle_fit);
   c.min_visible_fraction = n.get(k::min_visible_fraction);
@@ -90,13 +91,13 @@ config::Section DetectorConfig::schema(const std::string& path, const std::strin
   namespace k = detector_keys;
   namespace t = threshold_keys;
   namespace l = learned_keys;
-  return config::section(path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within,
-                         l::score_visible, l::rescale_above, l::finer_above, l::finer_below, l::finer_threshold,
-                         t::cr_min, t::cr_max, t::cg_min, t::cg_max, t::cb_min, t::cb_max, k::min_area_px,
-                         k::fruit_diameter_m, k::kr, k::kd_per_m, k::open_radius_px, k::close_radius_px, k::fill_holes,
-                         k::split_touching, k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle,
-                         k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min, k::reject_shapes, k::min_roundness,
-                         k::min_solidity, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
+  return config::section(
+      path, where, k::mode, l::model, l::input_width, l::threshold, l::merge_within, l::score_visible, l::rescale_above,
+      l::finer_above, l::finer_below, l::finer_threshold, t::cr_min, t::cr_max, t::cg_min, t::cg_max, t::cb_min,
+      t::cb_max, k::min_area_px, k::fruit_diameter_m, k::kr, k::kd_per_m, k::open_radius_px, k::close_radius_px,
+      k::fill_holes, k::split_touching, k::split_min_radius_px, k::split_min_peak_ratio, k::peel_to_circle,
+      k::merge_fragments, k::merge_max_gap_ratio, k::sky_cb_min, k::reject_shapes, k::min_roundness, k::min_solidity,
+      k::min_solidity_fitted, k::max_aspect_ratio, k::circle_fit, k::min_visible_fraction);
 }
 
 }  // namespace harvest::vision

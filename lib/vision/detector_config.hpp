@@ -55,6 +55,10 @@ inline constexpr Key<bool> reject_shapes{.name = "reject_shapes", .doc = "drop r
                                          .derived = "false (canopy: true)"};
 inline constexpr Key<double> min_roundness{"min_roundness", 0.45, {0.0, 1.0}, "", "4 pi A / P^2"};
 inline constexpr Key<double> min_solidity{"min_solidity", 0.75, {0.0, 1.0}, "", "A / convex hull area"};
+inline constexpr Key<double> min_solidity_fitted{
+    "min_solidity_fitted", 0.6, {0.0, 1.0}, "",
+    "... of a piece whose visible outline a circle fits (circle_fit): a leaf biting into a fruit leaves a piece far "
+    "smaller than its hull"};
 inline constexpr Key<double> max_aspect_ratio{"max_aspect_ratio", 2.5, {1.0, 100.0}, "", "longest / shortest side"};
 inline constexpr Key<bool> circle_fit{.name = "circle_fit",
                                       .doc = "diameter and centre from a circle through the visible convex outline",
@@ -87,6 +91,7 @@ struct DetectorConfig {
   bool reject_shapes = detector_keys::reject_shapes.fallback;
   double min_roundness = detector_keys::min_roundness.fallback;  // 4 pi A / P^2
   double min_solidity = detector_keys::min_solidity.fallback;   // A / convex hull area
+  double min_solidity_fitted = detector_keys::min_solidity_fitted.fallback;  // ... with a circle fitted to its outline
   double max_aspect_ratio = detector_keys::max_aspect_ratio.fallback;
   bool circle_fit = detector_keys::circle_fit.fallback;
   double min_visible_fraction = detector_keys::min_visible_fraction.fallback;  // below this the circle fit is not trusted

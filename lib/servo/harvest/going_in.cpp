@@ -100,7 +100,8 @@ GoingIn::Step GoingIn::ir(rt::Micros now, const Eigen::Isometry3d& tool, const E
     // Whether to stand off the fruit now, and how far (WindWatch::hold).
     const WindWatch::Hold h = wind_.hold(now, ahead_along_axis(tool, fruit.estimate), fruit.depth, hand_.whole());
     word(h.note);
-    i = ir_.step(now, tool, fruit, hand_.fruit_in_front(now), h.standoff, hand_.seen_whole(now));
+    i = ir_.step(now, tool, fruit, hand_.fruit_in_front(now), h.standoff, hand_.seen_whole(now),
+                 hand_.fruit_on_axis(now));
   }
   word(i.note);
   switch (i.action) {

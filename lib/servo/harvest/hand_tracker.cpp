@@ -23,6 +23,11 @@ bool HandTracker::seen_whole(rt::Micros now) const {
   return pixel_ && pixel_whole_ && now - pixel_->utime <= rt::from_seconds(cfg_.far_view_age);
 }
 
+bool HandTracker::fruit_on_axis(rt::Micros now) const {
+  return cfg_.axis_fruit_area > 0 && fruit_on_axis_taken_ &&
+         now - *fruit_on_axis_taken_ <= rt::from_seconds(cfg_.far_view_age);
+}
+
 void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& fruit, const Eigen::Isometry3d& camera,
                                 rt::Micros now) {
   const geometry::CameraModel& k = cfg_.hand_camera;
@@ -32,11 +37,15 @@ void HandTracker::on_detections(const fruit_detections_t& msg, const Fruit& frui
   // gripper is that fruit, not a leaf (see the leaf rule in IrGuidance).
   const double depth = (camera.inverse() * fruit.estimate).z();
   const double expected_px = depth > 0.01 ? k.fx * fruit.diameter / depth : 0.0;
+  const double image_area = static_cast<double>(msg.image_width) * msg.image_height;
   for (const auto& f : msg.fruits) {
     const auto& b = f.bbox_px;
+    const bool on_centre = b[0] <= k.cx && k.cx <= b[0] + b[2] && b[1] <= k.cy && k.cy <= b[1] + b[3];
+    // The optical axis runs beside the gripper axis (the camera sits in the palm), so a fruit over the image centre
+    // that large is near the palm and across the IR's beam.
+    if (on_centre && f.area_px >= cfg_.axis_fruit_area * image_area) fruit_on_axis_taken_ = msg.header.utime;
     if (f.diameter_px >= cfg_.fills_view * msg.image_height &&
-        f.diameter_px > cfg_.front_fruit_size_ratio * expected_px && b[0] <= k.cx && k.cx <= b[0] + b[2] &&
-        b[1] <= k.cy && k.cy <= b[1] + b[3]) {
+        f.diameter_px > cfg_.front_fruit_size_ratio * expected_px && on_centre) {
       fruit_fills_view_rx_ = now;
       // How far its centre lies off the gripper axis [m]: the pixel offset in
       // its own apparent diameters, times the (statistical) fruit diameter.

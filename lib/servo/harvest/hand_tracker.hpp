@@ -52,6 +52,10 @@ class HandTracker {
   // The followed fruit is whole in a hand image no older than far_view_age: its apparent size is a depth, taken
   // now (ServoConfig::far_view_ahead).
   bool seen_whole(rt::Micros now) const;
+  // A fruit covered the image centre and axis_fruit_area of a hand image no older than far_view_age: what the IR
+  // reads at the grasp range then is a fruit, not a leaf (whichever fruit: the followed one, its estimate too deep,
+  // or a nearer one).
+  bool fruit_on_axis(rt::Micros now) const;
 
  private:
   // The current fruit where the camera-in-hand's ray through `pixel` crosses
@@ -71,12 +75,13 @@ class HandTracker {
   ServoConfig cfg_;
   std::optional<PixelMeasurement> pixel_;  // associated centroid of the current fruit
   rt::Micros pixel_rx_ = 0;
-  float pixel_diameter_ = 0.0f;                    // ... its apparent diameter [px]
+  float pixel_diameter_ = 0.0f;                                     // ... its apparent diameter [px]
   Eigen::Isometry3d pixel_camera_ = Eigen::Isometry3d::Identity();  // ... the camera that took it
   bool pixel_whole_ = false;                       // ... the whole fruit, inside the image: its size gives a depth
   std::optional<Eigen::Vector3d> pixel_crossing_;  // ... where its ray crosses the fixed camera's line of sight
   rt::Micros fruit_fills_view_rx_ = 0;  // last hand image with a fruit filling it on the gripper axis (0: none)
   double fruit_in_front_offset_ = 0.0;  // ... its centre's distance from the gripper axis [m]
+  std::optional<rt::Micros> fruit_on_axis_taken_;  // capture time of the last hand image a fruit covered on its centre
   std::optional<Eigen::Vector2d> hand_target_px_;  // pixel of the hand target the reconstructor gave the current id
   rt::Micros hand_target_rx_ = 0;
 };

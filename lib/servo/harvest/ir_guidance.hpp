@@ -53,8 +53,11 @@ class IrGuidance {
   // (braking at ir_braking_decel; the tool standing there is not blocked).
   // `seen_whole` (from the hand tracker): the fruit is whole in a fresh hand
   // image, so its estimate's depth is current (ServoConfig::far_view_ahead).
+  // `fruit_on_axis` (from the hand tracker): a fruit covers the centre of a
+  // fresh hand image (ServoConfig::axis_fruit_area): a grasp reading then is
+  // a fruit, never a leaf.
   IrStep step(rt::Micros now, const Eigen::Isometry3d& tool, const Fruit& fruit, std::optional<double> fruit_in_front,
-              std::optional<double> hold_at = std::nullopt, bool seen_whole = false);
+              std::optional<double> hold_at = std::nullopt, bool seen_whole = false, bool fruit_on_axis = false);
 
   // The forward speed for the range still to go (the IR range if it sees the
   // fruit, the estimate always): the speed from which braking at

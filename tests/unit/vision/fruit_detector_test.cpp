@@ -567,3 +567,33 @@ TEST(DetectorConfig, FromYaml) {
 
 }  // namespace
 }  // namespace harvest::vision
+
+namespace harvest::vision {
+namespace {
+
+// A leaf lying on the fruit from its side (an upright ellipse centred half a radius off the centre, 0.6 r by 0.6 r
+// half axes) bites 35 % out of it: the piece's solidity is 0.66, under min_solidity (0.75), while its remaining rim
+// lies on one circle. Canopy mode keeps it (min_solidity_fitted 0.6) at its true centre and size; with the fitted
+// threshold at 0.75, as before the key, it is dropped.
+TEST(FruitDetector, AFruitWithALeafBitingIntoItsSideIsKept) {
+  const double r = 50, cx = 320, cy = 240;
+  cv::Mat3b img = test::background(640, 480);
+  draw_disc(img, cx, cy, r);
+  cv::ellipse(img, cv::Point2d(cx + 0.5 * r, cy), cv::Size2d(0.6 * r, 0.6 * r), 0, 0, 360,
+              cv::Scalar(kLeaf[0], kLeaf[1], kLeaf[2]), -1, cv::LINE_8);
+  ASSERT_NEAR(test::visible_share(img, cx, cy, r), 0.65, 0.02);
+  DetectorConfig cfg = DetectorConfig::canopy();
+  FruitDetector det(cfg, kFx, kFy);
+  const Detections d = det.detect(img);
+  ASSERT_EQ(d.fruits.size(), 1u);
+  EXPECT_TRUE(d.fruits[0].circle_fitted);
+  EXPECT_LT(d.fruits[0].solidity, 0.7);
+  EXPECT_NEAR(d.fruits[0].diameter_px, 2 * r, 0.03 * 2 * r);
+  EXPECT_NEAR(d.fruits[0].u, cx, 2.0);
+  EXPECT_NEAR(d.fruits[0].v, cy, 2.0);
+  cfg.min_solidity_fitted = 0.75;
+  EXPECT_TRUE(FruitDetector(cfg, kFx, kFy).detect(img).fruits.empty());
+}
+
+}  // namespace
+}  // namespace harvest::vision

@@ -341,3 +341,32 @@ TEST(HandTracker, AFruitIsSeenWholeOnlyInAFreshImageClearOfTheBorder) {
 
 }  // namespace
 }  // namespace harvest::servo
+
+namespace harvest::servo {
+namespace {
+
+// axis_fruit_area 0.6 (the default) of a 640 x 480 image is 184,320 px^2: a detection of that mask area over the
+// image centre is a fruit on the axis in a hand image up to far_view_age (0.15 s) old; one px^2 less, one beside the
+// centre, an older image or the key at 0 is not.
+TEST(HandTracker, AFruitCoveringTheImageCentreIsOnTheAxisWhileTheImageIsFresh) {
+  const rt::Micros taken = kT;
+  const auto seen = [&](double u, float area, double key = 0.6) {
+    ServoConfig c = config();
+    c.axis_fruit_area = key;
+    HandTracker h(c);
+    fruit_t d = detection(u, 239.5, 600);  // bbox 300 px either side of u
+    d.area_px = area;
+    h.on_detections(image(taken, {d}), fruit_ahead(), kCamera, taken + 30'000);
+    return h;
+  };
+  EXPECT_TRUE(seen(319.5, 184320).fruit_on_axis(taken + rt::from_seconds(0.15)));
+  EXPECT_FALSE(seen(319.5, 184320).fruit_on_axis(taken + rt::from_seconds(0.16)));
+  EXPECT_FALSE(seen(319.5, 184319).fruit_on_axis(taken + 50'000));
+  EXPECT_FALSE(seen(-20.0, 250000).fruit_on_axis(taken + 50'000));  // bbox ends at u 280: beside the centre
+  EXPECT_TRUE(seen(20.0, 250000).fruit_on_axis(taken + 50'000));    // ... at 320: over it (centre 319.5)
+  EXPECT_FALSE(seen(319.5, 250000, 0.0).fruit_on_axis(taken + 50'000));
+  EXPECT_FALSE(HandTracker(config()).fruit_on_axis(taken));
+}
+
+}  // namespace
+}  // namespace harvest::servo

@@ -203,6 +203,42 @@ TEST(IrGuidance, LeafOrFruitGoesOnHalfTheGapThenCloses) {
   EXPECT_EQ(*s.note, "IR at 33 mm, fruit 70 mm ahead: past a leaf");
 }
 
+// A fruit covering the centre of a fresh hand image (HandTracker::fruit_on_axis) is what the IR reads: a grasp
+// reading then is closed on at once, with the checked estimate beyond the agreement (6.1 cm ahead, the crossing's
+// depth too deep), in the leaf-or-fruit band, or with the fruit seen whole 20 cm off. Once going on past a leaf, a
+// reading short of where the leaf was is that leaf still.
+TEST(IrGuidance, AGraspReadingWithAFruitOnTheAxisIsNeverALeaf) {
+  constexpr bool kWhole = true, kOnAxis = true;
+  IrGuidance checked = guiding();
+  checked.on_reading(reading(0.010), kT, true);
+  IrStep s =
+      checked.step(kT, kTool, fruit(0.061, Fruit::Depth::kCrossing), std::nullopt, std::nullopt, !kWhole, kOnAxis);
+  EXPECT_EQ(s.action, IrStep::Action::kClose);
+  ASSERT_TRUE(s.note.has_value());
+  EXPECT_EQ(*s.note, "IR at 10 mm, fruit 61 mm ahead, a fruit over the hand image: no leaf");
+  ServoConfig split_cfg;
+  split_cfg.ir_split_close = 0.10;
+  IrGuidance split(split_cfg);
+  split.begin(kTool.translation(), kT);
+  split.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(
+      split.step(kT, kTool, fruit(0.08, Fruit::Depth::kConfirmed), std::nullopt, std::nullopt, !kWhole, kOnAxis).action,
+      IrStep::Action::kClose);
+  IrGuidance whole = guiding();
+  whole.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(whole.step(kT, kTool, fruit(0.2, Fruit::Depth::kSize), std::nullopt, std::nullopt, kWhole, kOnAxis).action,
+            IrStep::Action::kClose);
+  IrGuidance passing = guiding();
+  passing.on_reading(reading(0.010), kT, true);
+  EXPECT_EQ(passing.step(kT, kTool, fruit(0.2, Fruit::Depth::kConfirmed), std::nullopt).action,
+            IrStep::Action::kAdvance);
+  EXPECT_EQ(
+      passing
+          .step(kT, tool_at(0.005), fruit(0.2, Fruit::Depth::kConfirmed), std::nullopt, std::nullopt, !kWhole, kOnAxis)
+          .action,
+      IrStep::Action::kAdvance);
+}
+
 // A fruit seen whole in a fresh hand image with its estimate 10 cm or more ahead is far, whatever its depth's
 // source: a grasp reading then is a leaf in front of it (in wind the crossing disagrees with a fruit that has swung
 // on: its depth is the size's alone). Not 9 cm ahead, not unless seen whole, not with a nearer fruit filling the view.
