@@ -71,11 +71,7 @@ class HarvestMachine {
   HarvestMachine(ServoConfig config, std::unique_ptr<ApproachStrategy> approach);
 
   MachineOutput on_targets(const targets_t& msg, rt::Micros now);
-  MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
-    if (current_ && spec(state_).follows_fruit && msg.status == fruit_detections_t::STATUS_OK && robot_)
-      going_in_.on_hand_detections(msg, *current_, camera(), now);
-    return {};
-  }
+  MachineOutput on_hand_fruit(const fruit_detections_t& msg, rt::Micros now);
   MachineOutput on_robot_state(const robot_state_t& msg, rt::Micros now);
   MachineOutput on_ir(const ir_range_t& msg, rt::Micros now) {
     going_in_.on_ir(msg, now, state_ == State::kIrApproach);

@@ -5,6 +5,17 @@
 
 namespace harvest::servo {
 
+MachineOutput HarvestMachine::on_hand_fruit(const fruit_detections_t& msg, rt::Micros now) {
+  MachineOutput out;
+  if (msg.status != fruit_detections_t::STATUS_OK) return out;
+  if (auto why = invalid_detections(msg)) {
+    out.invalid_input = "FRUIT_HAND from " + msg.camera + " camera refused: " + *why;
+    return out;
+  }
+  if (current_ && spec(state_).follows_fruit && robot_) going_in_.on_hand_detections(msg, *current_, camera(), now);
+  return out;
+}
+
 MachineOutput HarvestMachine::on_targets(const targets_t& msg, rt::Micros now) {
   MachineOutput out;
   if (auto why = invalid_targets(msg)) {

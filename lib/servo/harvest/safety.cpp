@@ -72,4 +72,16 @@ std::optional<std::string> invalid_targets(const targets_t& msg) {
   return std::nullopt;
 }
 
+std::optional<std::string> invalid_detections(const fruit_detections_t& msg) {
+  if (msg.image_width <= 0 || msg.image_height <= 0)
+    return "image size " + std::to_string(msg.image_width) + " x " + std::to_string(msg.image_height);
+  for (std::size_t i = 0; i < msg.fruits.size(); ++i) {
+    const fruit_t& f = msg.fruits[i];
+    const float values[] = {f.u_px, f.v_px, f.diameter_px, f.area_px};
+    if (!std::all_of(std::begin(values), std::end(values), [](float v) { return std::isfinite(v); }))
+      return "fruit " + std::to_string(i) + ": pixel position, diameter or area is not finite";
+  }
+  return std::nullopt;
+}
+
 }  // namespace harvest::servo

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "harvest/fruit_detections_t.hpp"
 #include "harvest/gripper_state_t.hpp"
 #include "harvest/robot_state_t.hpp"
 #include "harvest/targets_t.hpp"
@@ -23,6 +24,9 @@ std::optional<std::string> gripper_fault(const gripper_state_t& msg);
 // the controller computes with it), if it is not. Such a message is refused
 // whole and counted, never taken for a fruit out of reach.
 std::optional<std::string> invalid_targets(const targets_t& msg);
+// ... and why a FRUIT_HAND message the detector calls OK is not: an image size of zero or less (the hand tracker
+// measures shares of the image and its border by it) or a NaN or infinite pixel position, size or area.
+std::optional<std::string> invalid_detections(const fruit_detections_t& msg);
 
 struct CommandContext {
   State state = State::kIdle;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "closed_loop/loop.hpp"
 
@@ -206,6 +207,41 @@ TEST(ClosedLoop, ALateImageIsSeenFromWhereTheCameraTookIt) {
   const Eigen::Vector3d off = *late.world.closed_offset();
   EXPECT_LT(off.head<2>().norm(), 0.004) << "closed " << off.transpose() * 1e3 << " mm off the fruit";
   EXPECT_LT(late.t(), prompt.t() + 1.0);
+}
+
+}  // namespace
+}  // namespace harvest::servo::testing
+
+namespace harvest::servo::testing {
+namespace {
+
+// A FRUIT_HAND the detector calls OK with no image size (a fruit over the image centre would then cover any share
+// of it) or a NaN pixel position is refused whole and counted; the fruit is still picked from the good images.
+TEST(ClosedLoop, MalformedHandDetectionsAreRefusedAsInvalidInput) {
+  Loop loop(experiment_one());
+  loop.start();
+  ASSERT_TRUE(loop.run_until_state(State::kIrApproach, 30.0));
+  fruit_detections_t bad{};
+  bad.camera = "hand";
+  bad.status = fruit_detections_t::STATUS_OK;
+  fruit_t f{};
+  f.u_px = 320.0f;
+  f.v_px = 240.0f;
+  f.diameter_px = 900.0f;
+  f.area_px = 1e9f;
+  f.bbox_px[2] = 640;
+  f.bbox_px[3] = 480;
+  bad.fruits = {f};
+  bad.num_fruits = 1;
+  loop.send(loop.t() + 0.001, ch::kFruitHand, bad);  // image size 0 x 0
+  bad.image_width = 640;
+  bad.image_height = 480;
+  bad.fruits[0].v_px = std::numeric_limits<float>::quiet_NaN();
+  loop.send(loop.t() + 0.001, ch::kFruitHand, bad);
+  ASSERT_TRUE(loop.run_until_state(State::kDone, 60.0));
+  EXPECT_EQ(loop.ctrl.stats().counters.at("invalid_input"), 2);
+  ASSERT_NE(loop.outcome(1), nullptr);
+  EXPECT_EQ(loop.outcome(1)->outcome, +fruit_outcome_t::PICKED) << loop.outcome(1)->detail;
 }
 
 }  // namespace

@@ -70,6 +70,29 @@ TEST(Safety, RobotAndGripperFaultsAreNamed) {
   EXPECT_FALSE(gripper_fault(g).has_value());
 }
 
+TEST(Safety, HandDetectionsWithNoImageSizeOrNonFiniteNumbersAreInvalidInput) {
+  fruit_detections_t m{};
+  m.camera = "hand";
+  m.image_width = 640;
+  m.image_height = 480;
+  m.fruits = {fruit_t{}, fruit_t{}};
+  m.num_fruits = 2;
+  EXPECT_FALSE(invalid_detections(m));
+  auto with = [&](auto set) {
+    fruit_detections_t bad = m;
+    set(bad);
+    return invalid_detections(bad).value_or("");
+  };
+  EXPECT_EQ(with([](fruit_detections_t& b) { b.image_width = 0; }), "image size 0 x 480");
+  EXPECT_EQ(with([](fruit_detections_t& b) { b.image_height = -480; }), "image size 640 x -480");
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(with([&](fruit_detections_t& b) { b.fruits[1].area_px = inf; }),
+            "fruit 1: pixel position, diameter or area is not finite");
+  EXPECT_NE(with([&](fruit_detections_t& b) { b.fruits[0].u_px = nan; }), "");
+  EXPECT_NE(with([&](fruit_detections_t& b) { b.fruits[0].v_px = -inf; }), "");
+  EXPECT_NE(with([&](fruit_detections_t& b) { b.fruits[0].diameter_px = nan; }), "");
+}
+
 TEST(Safety, TargetsWithNonFiniteNumbersAreInvalidInput) {
   targets_t m{};
   m.source_camera = "fixed";
